@@ -1,0 +1,62 @@
+"""multicrane: planning how cranes assemble prefabricated buildings.
+
+    import multicrane
+    env = multicrane.parallel_env("e3s2", n_cranes=2)   # PettingZoo ParallelEnv
+    aec = multicrane.env("frame2-3c")                   # the AEC form
+    multicrane.scenario_names()                         # the shipped scenarios
+
+Importing this package loads numpy, gymnasium and pettingzoo only.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from multicrane.env import MultiCraneEnv
+from multicrane.scenario import Scenario, ScenarioError, load_scenario, scenario_names
+from multicrane.types import Event, EventType, Kind, Move, Status
+
+__version__ = "0.1.0"
+
+
+def parallel_env(scenario: str | Path | Scenario = "e2s2", n_cranes: int | None = None, **options):
+    """The multi-agent environment (PettingZoo ``ParallelEnv``); see ``MultiCraneEnv``."""
+    return MultiCraneEnv(scenario, n_cranes=n_cranes, **options)
+
+
+def env(scenario: str | Path | Scenario = "e2s2", n_cranes: int | None = None, **options):
+    """The AEC form of :func:`parallel_env` (through PettingZoo's ``parallel_to_aec``)."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(scenario, n_cranes=n_cranes, **options))
+
+
+def _register() -> None:
+    """Register every shipped scenario with PettingZoo: ``pettingzoo.make("parallel",
+    "multicrane/e3s2-v0")`` (and ``"aec"``)."""
+    from pettingzoo.env_registry import register
+
+    for name in scenario_names():
+        env_id = f"multicrane/{name}-v0"
+        register(
+            "parallel", env_id, entry_point="multicrane:parallel_env", kwargs={"scenario": name}
+        )
+        register("aec", env_id, entry_point="multicrane:env", kwargs={"scenario": name})
+
+
+_register()
+
+__all__ = [
+    "Event",
+    "EventType",
+    "Kind",
+    "Move",
+    "MultiCraneEnv",
+    "Scenario",
+    "ScenarioError",
+    "Status",
+    "env",
+    "load_scenario",
+    "parallel_env",
+    "scenario_names",
+]

@@ -1,0 +1,228 @@
+"""The multi-agent environment: a PettingZoo ``ParallelEnv`` over the simulator core."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from multicrane import reward as reward_rules
+from multicrane.observation import Observer
+from multicrane.render import render_ansi
+from multicrane.scenario import Scenario, load_scenario
+from multicrane.simulator import NOBODY, Simulator
+from multicrane.types import CLAIM_BASE, Event, EventType, Status
+
+ENV_VERSION = 0
+_INITIAL = int(Status.INITIAL)
+
+
+class MultiCraneEnv(ParallelEnv):
+    """Cranes assembling a prefabricated building on a voxel site (PettingZoo parallel API).
+
+    **Agents.** ``crane_0 … crane_{n-1}``, all present for the whole episode. Cranes are
+    abstract: they carry components; only components occupy cells and collide.
+
+    **Actions.** ``Discrete(8 + C)`` per crane, C the number of components:
+    ``0`` x-1, ``1`` y-1, ``2`` x+1, ``3`` y+1, ``4`` up, ``5`` down (move the held
+    component one cell), ``6`` wait, ``7`` assemble the held component once it has arrived,
+    ``8 + i`` claim component ``i`` (scenario order). Claiming lifts an initial component to
+    its pick-up pose. Each step the cranes act one after another in an order drawn from the
+    episode's generator; each action sees the site as the earlier ones left it, so two
+    components never share a cell, two claims of one component go to the earlier crane (the
+    later one gets a ``CLAIM_CONFLICT`` event) and two moves into one cell go to the earlier.
+    An action outside the mask does nothing and is recorded as an event (``BLOCKED`` for a
+    move into something, else ``ILLEGAL``); with ``strict=True`` it raises ``ValueError``.
+
+    **Automatic mode** (``auto=True``): the paper's process. Each idle crane is given the next
+    component of the scenario's list order, its first move lifts it, and it is assembled on
+    arrival; claim and assemble actions are masked out. With one crane this is exactly the
+    paper's single-agent process (``paper-benchmark.md`` section 5).
+
+    **Observation.** ``{"observation": float32 vector in [0, 1], "action_mask": int8 vector}``.
+    The vector is the site as (X, Y, 9) height planes, a (C, 14) component table and a 9-value
+    crane vector; see ``multicrane.observation`` and ``env.observation_layout.split(obs)``.
+    Its shape is fixed for a scenario. The mask always allows ``wait``.
+
+    **Reward.** One team reward, the same for every crane: ``N`` (assembled components, pre-
+    built included) for each component assembled this step, ``completion`` (10) on the step
+    that finishes the building, otherwise ``-over_limit_cost`` (2) while a crane holds a
+    component past ``move_limit`` (15) moves and ``-step_cost / (k + 1)`` else, ``k`` the
+    components assembled this episode. For one crane in automatic mode this is exactly the
+    paper's reward. ``infos[agent]`` holds ``events`` (this crane's ``Event`` tuples),
+    ``reward_term`` (its share; the shares add up to the team reward) and ``action_mask``.
+
+    **Termination / truncation.** Terminated when every component is assembled; truncated at
+    the step limit (the scenario's, or ``max_steps``) if not terminated.
+
+    **Arguments.** ``scenario`` (shipped name like ``"e3s2"``, a path, or a ``Scenario``),
+    ``n_cranes`` (default: the scenario's), ``auto`` (False), ``strict`` (False),
+    ``max_steps`` (default: the scenario's ``step_limit``), ``render_mode`` (None or
+    ``"ansi"``).
+
+    **Version history.** v0: first release.
+    """
+
+    metadata = {
+        "name": f"multicrane_v{ENV_VERSION}",
+        "render_modes": ["ansi"],
+        "is_parallelizable": True,
+    }
+
+    def __init__(
+        self,
+        scenario: str | Path | Scenario = "e2s2",
+        n_cranes: int | None = None,
+        auto: bool = False,
+        strict: bool = False,
+        max_steps: int | None = None,
+        render_mode: str | None = None,
+    ):
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+        self.scenario = load_scenario(scenario)
+        self.sim = Simulator(self.scenario, n_cranes=n_cranes, auto=auto)
+        self.observer = Observer(self.sim)
+        self.observation_layout = self.observer.layout
+        self.auto = auto
+        self.strict = strict
+        self.render_mode = render_mode
+        self.step_limit = int(max_steps) if max_steps is not None else self.scenario.step_limit
+        if self.step_limit < 1:
+            raise ValueError(f"max_steps must be at least 1, got {max_steps!r}")
+        n = self.sim.n_cranes
+        self.possible_agents = [f"crane_{i}" for i in range(n)]
+        self.agents: list[str] = []
+        self._action_space = spaces.Discrete(self.sim.n_actions)
+        self._observation_space = spaces.Dict(
+            {
+                "observation": spaces.Box(0.0, 1.0, (self.observer.layout.size,), np.float32),
+                "action_mask": spaces.Box(0, 1, (self.sim.n_actions,), np.int8),
+            }
+        )
+        self._rng: np.random.Generator | None = None
+        self._masks: list[np.ndarray] = []
+
+    # -- spaces ------------------------------------------------------------------------------
+
+    def observation_space(self, agent: str) -> spaces.Dict:
+        return self._observation_space
+
+    def action_space(self, agent: str) -> spaces.Discrete:
+        return self._action_space
+
+    # -- episode -----------------------------------------------------------------------------
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is not None or self._rng is None:
+            self._rng = np.random.default_rng(seed)
+        self.sim.reset(self._rng)
+        self.observer.reset(self.step_limit)
+        self.agents = list(self.possible_agents)
+        self.total_reward = 0.0
+        observations = self._observe()
+        infos = {
+            a: {"events": (), "reward_term": 0.0, "action_mask": self._masks[i]}
+            for i, a in enumerate(self.possible_agents)
+        }
+        return observations, infos
+
+    def step(self, actions: dict[str, Any]):
+        if not self.agents:
+            raise RuntimeError("step() called on a finished episode: call reset() first")
+        sim = self.sim
+        joint = self._joint_action(actions)
+        n = sim.n_cranes
+        order = self._rng.permutation(n).tolist() if n > 1 else None
+        out = sim.step(joint, order)
+
+        # Reward: from the step's outcome (see multicrane.reward).
+        progress_by = out.assembled_by + out.pass_over_by
+        over = sim.over_limit()
+        complete = sim.done
+        r = reward_rules.team_reward(
+            self.scenario.reward, len(progress_by), sim.n_placed, sim.k, complete, bool(over)
+        )
+        terms = reward_rules.split(r, n, progress_by, over)
+        self.total_reward += r
+
+        truncated = not complete and sim.step_count >= self.step_limit
+        observations = self._observe()
+        per_crane: list[list[Event]] = [[] for _ in range(n)]
+        for e in out.events:
+            per_crane[e.crane].append(e)
+        agents = self.possible_agents
+        rewards = dict.fromkeys(agents, r)
+        terminations = dict.fromkeys(agents, complete)
+        truncations = dict.fromkeys(agents, truncated)
+        infos = {
+            a: {
+                "events": tuple(per_crane[i]),
+                "reward_term": terms[i],
+                "action_mask": self._masks[i],
+            }
+            for i, a in enumerate(agents)
+        }
+        if complete or truncated:
+            self.agents = []
+        return observations, rewards, terminations, truncations, infos
+
+    def _joint_action(self, actions: dict[str, Any]) -> list[int]:
+        joint = []
+        for i, agent in enumerate(self.possible_agents):
+            if agent not in actions:
+                raise KeyError(f"step(): no action for {agent!r}; every crane acts every step")
+            a = int(actions[agent])
+            if not 0 <= a < self.sim.n_actions:
+                raise ValueError(
+                    f"step(): {agent} sent action {a}, outside 0..{self.sim.n_actions - 1}"
+                )
+            if self.strict and not self._masks[i][a]:
+                raise ValueError(f"step(): {agent} sent illegal action {a} ({describe_action(a)})")
+            joint.append(a)
+        return joint
+
+    def _observe(self) -> dict[str, dict[str, np.ndarray]]:
+        sim = self.sim
+        claimable = sim.claimable_components()
+        if self.auto:
+            ready = [c for c in sim.held if c != NOBODY and sim.status[c] == _INITIAL]
+        else:
+            ready = claimable
+        self.observer.update(ready)
+        self._masks = list(sim.action_masks())
+        return {
+            a: {"observation": self.observer.observe(i), "action_mask": self._masks[i]}
+            for i, a in enumerate(self.possible_agents)
+        }
+
+    # -- extras --------------------------------------------------------------------------------
+
+    def action_masks(self) -> dict[str, np.ndarray]:
+        """The current legal-action mask of every crane."""
+        return {a: self._masks[i] for i, a in enumerate(self.possible_agents)}
+
+    def state(self) -> np.ndarray:
+        """The global state: the occupancy grid (padded; see ``multicrane.simulator``)."""
+        return self.sim.occ.reshape(self.sim.shape).copy()
+
+    def render(self) -> str | None:
+        if self.render_mode == "ansi":
+            return render_ansi(self.sim)
+        return None
+
+    def close(self) -> None:
+        pass
+
+
+def describe_action(action: int) -> str:
+    names = ["x-1", "y-1", "x+1", "y+1", "up", "down", "wait", "assemble"]
+    if action < CLAIM_BASE:
+        return names[action]
+    return f"claim component {action - CLAIM_BASE}"
+
+
+__all__ = ["MultiCraneEnv", "EventType", "describe_action"]

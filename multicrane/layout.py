@@ -1,0 +1,132 @@
+"""The generator: where each component starts an episode.
+
+Called once per ``reset`` with the episode's ``np.random.Generator``; nothing else draws random
+numbers for the layout. Order of draws: first the target of every pre-built component that may
+stand on several targets (the paper's Env1 coin), then the random initial poses in list order.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from multicrane import geometry
+from multicrane.scenario import ComponentSpec, Scenario, ScenarioError
+
+Pose = geometry.Pose
+MAX_LAYOUT_ATTEMPTS = 1000
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Initial poses (None for pre-built components) and the target each pre-built one fills."""
+
+    initial: tuple[Pose | None, ...]
+    prebuilt_target: tuple[int, ...]  # -1 for components that are not pre-built
+
+
+def candidate_poses(scenario: Scenario, component: ComponentSpec) -> list[tuple[Pose, float]]:
+    """Every pose the random start rule can draw for a component, with its probability.
+
+    The rule: node 1's x is uniform over all x values of the bands; y is uniform over the
+    y range of the band holding that x; the direction from node 1 to node 2 is uniform over
+    ``directions``. Poses that leave the site or the yard, touch an obstacle, or whose pick-up
+    pose is not free of obstacles are left out (the caller renormalises).
+    """
+    return list(_candidates(scenario, scenario.components.index(component)))
+
+
+@lru_cache(maxsize=512)
+def _candidates(scenario: Scenario, index: int) -> tuple[tuple[Pose, float], ...]:
+    rule = scenario.random_start
+    assert rule is not None
+    component = scenario.components[index]
+    obstacle = scenario.obstacle_cells()
+    xs = [x for band in rule.bands for x in range(band.x[0], band.x[1] + 1)]
+    out: list[tuple[Pose, float]] = []
+    for band in rule.bands:
+        ys = range(band.y[0], band.y[1] + 1)
+        for x in range(band.x[0], band.x[1] + 1):
+            for y in ys:
+                for d in rule.directions:
+                    n1 = (x, y, rule.z)
+                    k = component.length - 1
+                    n2 = (x + k * d[0], y + k * d[1], rule.z + k * d[2])
+                    pose = (n1, n2)
+                    if _usable(scenario, component, pose, obstacle):
+                        p = 1.0 / (len(xs) * len(ys) * len(rule.directions))
+                        out.append((pose, p))
+    return tuple(out)
+
+
+def _usable(scenario: Scenario, component: ComponentSpec, pose: Pose, obstacle: set) -> bool:
+    for cell in geometry.pose_cells(*pose):
+        if not geometry.in_site(cell, scenario.size) or cell in obstacle:
+            return False
+        if scenario.in_construction_area(cell[0], cell[1]):
+            return False
+    lifted = geometry.pickup_pose(component, scenario.beam_lift_z, pose)
+    return all(
+        geometry.in_site(cell, scenario.size) and cell not in obstacle
+        for cell in geometry.pose_cells(*lifted)
+    )
+
+
+def draw_layout(scenario: Scenario, rng: np.random.Generator) -> Layout:
+    """Draw one episode's layout; deterministic given the generator's state."""
+    comps = scenario.components
+    prebuilt_target = [-1] * len(comps)
+    taken_targets: set[int] = set()
+    for i, c in enumerate(comps):
+        if c.prebuilt and not c.prebuilt_on:
+            prebuilt_target[i] = i
+            taken_targets.add(i)
+    for i, c in enumerate(comps):
+        if c.prebuilt and c.prebuilt_on:
+            choices = [t for t in c.prebuilt_on if t not in taken_targets]
+            if not choices:
+                raise ScenarioError(
+                    f"{scenario.source}: no free target left for pre-built {c.id!r}"
+                )
+            prebuilt_target[i] = int(choices[int(rng.integers(len(choices)))])
+            taken_targets.add(prebuilt_target[i])
+
+    fixed: set[tuple[int, int, int]] = set()
+    for c in comps:
+        if c.initial is not None:
+            fixed.update(geometry.pose_cells(*c.initial))
+    drawn = [i for i in scenario.order if comps[i].initial is None and not comps[i].prebuilt]
+    for _ in range(MAX_LAYOUT_ATTEMPTS):
+        poses = _draw_random_poses(scenario, drawn, fixed, rng)
+        if poses is not None:
+            initial = [c.initial for c in comps]
+            for i, pose in poses.items():
+                initial[i] = pose
+            return Layout(tuple(initial), tuple(prebuilt_target))
+    raise ScenarioError(
+        f"{scenario.source}: random_start found no layout in {MAX_LAYOUT_ATTEMPTS} attempts"
+    )
+
+
+def _draw_random_poses(
+    scenario: Scenario, drawn: list[int], fixed: set, rng: np.random.Generator
+) -> dict[int, Pose] | None:
+    """One attempt: place the drawn components in list order; None when one finds no pose."""
+    occupied = set(fixed)
+    poses: dict[int, Pose] = {}
+    for i in drawn:
+        options = [
+            (pose, p)
+            for pose, p in _candidates(scenario, i)
+            if not occupied.intersection(geometry.pose_cells(*pose))
+        ]
+        if not options:
+            return None
+        weights = np.array([p for _, p in options])
+        pick = int(rng.choice(len(options), p=weights / weights.sum()))
+        pose = options[pick][0]
+        poses[i] = pose
+        occupied.update(geometry.pose_cells(*pose))
+    return poses

@@ -1,0 +1,271 @@
+"""The multi-agent observer: one flat float32 vector per crane, fixed shape per scenario.
+
+Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening):
+
+1. ``planes``: an (X, Y, 9) array over the site's plan, channel last. Each channel holds the
+   height of the highest qualifying cell above (x, y), divided by the site height (0 = none):
+
+   ==  ===========================================================================
+   0   obstacles
+   1   components in the yard (initial)
+   2   components ready to pick up (claimable now; in automatic mode: assigned)
+   3   components in transit
+   4   placed components (arrived or assembled, pre-built included)
+   5   free targets
+   6   components in transit past the move limit
+   7   this crane's component
+   8   targets this crane's component could fill now (free, compatible, supported)
+   ==  ===========================================================================
+
+2. ``components``: a (C, 14) table in scenario order (claim action ``8 + i`` names row i):
+   status one-hot (4), ready, held by a crane, held by this crane, is a beam, node 1 and
+   node 2 as (x, y, z) divided by the site size.
+3. ``crane``: 9 values: holds a component, it is in transit, it has arrived, its moves /
+   move limit (clipped to 1), past the move limit, assembly steps left / assembly steps,
+   pass-over pending, fraction of components assembled, fraction of the step limit used.
+
+Channels 0-6 are shared by all cranes and kept up to date incrementally: a ``uint8`` bit grid
+holds one bit per channel per cell, and only the (x, y) columns whose bits changed are
+recomputed each step. One policy can act for every crane: all per-crane facts are in
+channels 7-8, the "held by this crane" column and the crane vector.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from multicrane.simulator import NOBODY, Simulator
+from multicrane.types import Kind, Status
+
+_INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
+_BEAM = int(Kind.BEAM)
+
+N_SHARED = 7
+N_OWN = 2
+N_CHANNELS = N_SHARED + N_OWN
+COMPONENT_FEATURES = 14
+CRANE_FEATURES = 9
+
+OBSTACLE, INITIAL, READY, IN_TRANSIT, PLACED, FREE_TARGET, OVER_LIMIT = range(N_SHARED)
+MINE, MY_TARGETS = N_SHARED, N_SHARED + 1
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """Where each part lies in the flat observation vector."""
+
+    plan: tuple[int, int]  # (X, Y)
+    n_components: int
+
+    @property
+    def shared(self) -> slice:
+        return slice(0, self.plan[0] * self.plan[1] * N_SHARED)
+
+    @property
+    def own(self) -> slice:
+        start = self.shared.stop
+        return slice(start, start + self.plan[0] * self.plan[1] * N_OWN)
+
+    @property
+    def components(self) -> slice:
+        start = self.own.stop
+        return slice(start, start + self.n_components * COMPONENT_FEATURES)
+
+    @property
+    def crane(self) -> slice:
+        start = self.components.stop
+        return slice(start, start + CRANE_FEATURES)
+
+    @property
+    def size(self) -> int:
+        return self.crane.stop
+
+    def split(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+        """The flat vector as ``planes`` (X, Y, 9), ``components`` (C, 14) and ``crane`` (9,)."""
+        X, Y = self.plan
+        planes = np.concatenate(
+            [obs[self.shared].reshape(X, Y, N_SHARED), obs[self.own].reshape(X, Y, N_OWN)],
+            axis=-1,
+        )
+        return {
+            "planes": planes,
+            "components": obs[self.components].reshape(self.n_components, COMPONENT_FEATURES),
+            "crane": obs[self.crane],
+        }
+
+
+class Observer:
+    """Builds every crane's observation from a Simulator, updating only what changed."""
+
+    def __init__(self, sim: Simulator):
+        self.sim = sim
+        X, Y, H = sim.scenario.size
+        self.plan = (X, Y)
+        self.height = H
+        self.layout = lay = ObservationLayout((X, Y), sim.n_components)
+        self._own_start = lay.own.start
+        self._components_start = lay.components.start
+        self._crane = lay.crane
+        # Per padded linear cell index: the (x, y) plan index and the index of its bit byte
+        # (-1 outside the site, the ground and the sky included).
+        xy = np.full(sim.shape, -1, dtype=np.int64)
+        xy[1 : X + 1, 1 : Y + 1, 1 : H + 1] = np.arange(X * Y).reshape(X, Y, 1)
+        z = np.broadcast_to(np.arange(H + 2), sim.shape)
+        self._xy = xy.reshape(-1).tolist()
+        self._z = z.reshape(-1).tolist()
+        self._byte = np.where(xy >= 0, xy * (H + 1) + z, -1).reshape(-1).tolist()
+        self._shifts = np.arange(N_SHARED, dtype=np.uint8).reshape(1, 1, N_SHARED)
+        self._zcol = (np.arange(H + 1, dtype=np.float32) / H).reshape(1, H + 1, 1)
+        self._scale = (1.0 / max(X - 1, 1), 1.0 / max(Y - 1, 1), 1.0 / H)
+        self._target_footprint = [self._footprint(cells) for cells in sim.target_cells]
+        self._assembly_steps = sim.scenario.assembly_steps
+        self._limit = max(sim.move_limit, 1)
+
+    def _footprint(self, cells: list[int]) -> list[tuple[int, float]]:
+        """(plan index, top height / H) of each (x, y) column a set of cells covers."""
+        top: dict[int, int] = {}
+        for j in cells:
+            p = self._xy[j]
+            top[p] = max(top.get(p, 0), self._z[j])
+        return [(p, z / self.height) for p, z in top.items()]
+
+    # -- the shared part -------------------------------------------------------------------
+
+    def reset(self, step_limit: int) -> None:
+        sim = self.sim
+        X, Y = self.plan
+        H = self.height
+        self.step_limit = step_limit
+        self.bits = np.zeros((X * Y, H + 1), dtype=np.uint8)
+        self._bits = memoryview(self.bits.reshape(-1))
+        # The shared planes and the component table are views into the template, which
+        # every crane's observation starts as a copy of.
+        self.template = np.zeros(self.layout.size, dtype=np.float32)
+        self.planes = self.template[self.layout.shared].reshape(X * Y, N_SHARED)
+        self.table = self.template[self.layout.components].reshape(
+            sim.n_components, COMPONENT_FEATURES
+        )
+        self._dirty_columns: set[int] = set()
+        obstacles = np.flatnonzero(sim._static.reshape(-1) == -1).tolist()
+        self._paint(obstacles, 0, 1 << OBSTACLE)
+        self._painted: list[tuple[list[int], int]] = [([], 0)] * sim.n_components
+        self._targets_free = [True] * sim.n_components
+        for t in range(sim.n_components):
+            self._paint([], 0, 1 << FREE_TARGET, sim.target_cells[t])
+        self._ready: set[int] = set()
+        self.update(sim.claimable_components(), full=True)
+
+    def _paint(
+        self, cells: list[int], bits: int, new_bits: int, new_cells: list[int] | None = None
+    ):
+        """Clear ``bits`` on ``cells``, then set ``new_bits`` on ``new_cells`` (default: same)."""
+        byte, bm, xy, dirty = self._byte, self._bits, self._xy, self._dirty_columns
+        if bits:
+            keep = ~bits & 0xFF
+            for j in cells:
+                i = byte[j]
+                if i >= 0:
+                    bm[i] &= keep
+                    dirty.add(xy[j])
+        for j in cells if new_cells is None else new_cells:
+            i = byte[j]
+            if i >= 0:
+                bm[i] |= new_bits
+                dirty.add(xy[j])
+
+    def _component_bits(self, c: int, ready: bool) -> int:
+        sim = self.sim
+        status = sim._status[c]
+        if status == _INITIAL:
+            return (1 << INITIAL) | ((1 << READY) if ready else 0)
+        if status == _IN_TRANSIT:
+            over = (1 << OVER_LIMIT) if sim.moves[c] > sim.move_limit else 0
+            return (1 << IN_TRANSIT) | over
+        return 1 << PLACED
+
+    def _paint_component(self, c: int, ready: bool) -> None:
+        sim = self.sim
+        old_cells, old_bits = self._painted[c]
+        cells = sim.cells[c]
+        bits = self._component_bits(c, ready)
+        self._paint(old_cells, old_bits, 0)
+        self._paint([], 0, bits, cells)
+        self._painted[c] = (cells, bits)
+        # The component table row (the "held by this crane" column is per crane).
+        status = sim._status[c]
+        x1, y1, z1 = sim.cell(cells[0])
+        x2, y2, z2 = sim.cell(cells[-1])
+        sx, sy, sz = self._scale
+        self.table[c] = (
+            status == _INITIAL,
+            status == _IN_TRANSIT,
+            status == _ARRIVED,
+            status == _ASSEMBLED,
+            ready,
+            sim.holder[c] != NOBODY,
+            0.0,
+            sim.kind[c] == _BEAM,
+            x1 * sx,
+            y1 * sy,
+            z1 * sz,
+            x2 * sx,
+            y2 * sy,
+            z2 * sz,
+        )
+
+    def update(self, ready: list[int], full: bool = False) -> None:
+        """Bring the shared part up to date after a step (``ready``: components to mark)."""
+        sim = self.sim
+        ready_now = set(ready)
+        changed = set(range(sim.n_components)) if full else sim.dirty | (ready_now ^ self._ready)
+        self._ready = ready_now
+        for c in changed:
+            self._paint_component(c, c in ready_now)
+            t = int(sim.filled[c])  # a target is filled only when a component arrives at it
+            if t >= 0 and self._targets_free[t]:
+                self._paint(sim.target_cells[t], 1 << FREE_TARGET, 0)
+                self._targets_free[t] = False
+        sim.dirty.clear()
+        if self._dirty_columns:
+            idx = np.fromiter(self._dirty_columns, dtype=np.intp, count=len(self._dirty_columns))
+            has = (self.bits[idx][:, :, None] >> self._shifts) & 1
+            self.planes[idx] = (has * self._zcol).max(axis=1)
+            self._dirty_columns.clear()
+
+    # -- per crane ---------------------------------------------------------------------------
+
+    def observe(self, crane: int) -> np.ndarray:
+        """A fresh array (the caller may keep it) with this crane's observation."""
+        sim = self.sim
+        obs = self.template.copy()
+        comp = sim.held[crane]
+        if comp != NOBODY:
+            own = self._own_start
+            for p, z in self._footprint(sim.cells[comp]):
+                obs[own + p * N_OWN] = z
+            footprints = self._target_footprint
+            for t in sim.ready_targets(comp):
+                for p, z in footprints[t]:
+                    obs[own + p * N_OWN + 1] = z
+            obs[self._components_start + comp * COMPONENT_FEATURES + 6] = 1.0
+            status = sim._status[comp]
+            moves = int(sim.moves[comp])
+            held = [
+                1.0,
+                status == _IN_TRANSIT,
+                status == _ARRIVED,
+                min(moves / self._limit, 1.0),
+                moves > sim.move_limit,
+            ]
+        else:
+            held = [0.0] * 5
+        obs[self._crane] = (
+            *held,
+            sim.assembling[crane] / self._assembly_steps,
+            sim.pass_over[crane],
+            sim.n_placed / sim.n_components,
+            min(sim.step_count / self.step_limit, 1.0),
+        )
+        return obs

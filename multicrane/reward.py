@@ -1,0 +1,49 @@
+"""The team reward: the paper's reward, generalised to several cranes.
+
+For one crane in automatic mode this is exactly the reward behind the paper's Table I
+(``paper-benchmark.md`` section 5). With ``N`` the assembled components after the step
+(pre-built included), ``k`` those assembled during this episode, and ``m`` a held component's
+successful moves:
+
+- a step in which components are assembled (or a pass-over happens) pays ``N`` for each;
+  the step that completes the building pays ``completion`` instead;
+- any other step costs ``over_limit_cost`` while some crane holds a component with
+  ``m > move_limit``, and ``step_cost / (k + 1)`` otherwise.
+
+The cost is paid once per joint step, not once per crane, so finishing sooner (in parallel)
+is what pays. ``split`` divides the team reward into per-crane terms that add up to it:
+progress goes to the crane that made it; the over-limit cost to the cranes over the limit;
+the plain step cost to all cranes equally.
+"""
+
+from __future__ import annotations
+
+from multicrane.scenario import RewardSpec
+
+
+def team_reward(
+    spec: RewardSpec, n_progress: int, n_placed: int, k: int, complete: bool, over_limit: bool
+) -> float:
+    if complete:
+        return spec.completion
+    if n_progress:
+        return float(n_progress * n_placed)
+    if over_limit:
+        return -spec.over_limit_cost
+    return -spec.step_cost / (k + 1)
+
+
+def split(
+    reward: float, n_cranes: int, progress_by: list[int], over_limit_by: list[int]
+) -> list[float]:
+    """Per-crane terms of a team reward (they sum to ``reward``)."""
+    terms = [0.0] * n_cranes
+    owners = progress_by or over_limit_by
+    if owners:
+        share = reward / len(owners)
+        for crane in owners:
+            terms[crane] += share
+    else:
+        share = reward / n_cranes
+        terms = [share] * n_cranes
+    return terms
