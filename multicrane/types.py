@@ -23,8 +23,8 @@ class Status(IntEnum):
 
     INITIAL = 0  # lying in the yard
     IN_TRANSIT = 1  # lifted, carried by a crane
-    ARRIVED = 5  # covers a free target it may fill; waits for assembly
-    ASSEMBLED = 7  # built in; never moves again
+    ARRIVED = 2  # covers a free target it may fill; waits for assembly
+    ASSEMBLED = 3  # built in; never moves again
 
 
 class Move(IntEnum):
