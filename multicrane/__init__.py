@@ -13,6 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from multicrane.env import MultiCraneEnv
+from multicrane.paper import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
 from multicrane.scenario import Scenario, ScenarioError, load_scenario, scenario_names
 from multicrane.types import Event, EventType, Kind, Move, Status
 
@@ -32,8 +33,10 @@ def env(scenario: str | Path | Scenario = "e2s2", n_cranes: int | None = None, *
 
 
 def _register() -> None:
-    """Register every shipped scenario with PettingZoo: ``pettingzoo.make("parallel",
-    "multicrane/e3s2-v0")`` (and ``"aec"``)."""
+    """Register every shipped scenario with PettingZoo (``pettingzoo.make("parallel",
+    "multicrane/e3s2-v0")``, and ``"aec"``) and the 16 paper configurations with Gymnasium
+    (``gymnasium.make("multicrane/PaperAssembly-E1S1-v0")``)."""
+    import gymnasium
     from pettingzoo.env_registry import register
 
     for name in scenario_names():
@@ -42,11 +45,20 @@ def _register() -> None:
             "parallel", env_id, entry_point="multicrane:parallel_env", kwargs={"scenario": name}
         )
         register("aec", env_id, entry_point="multicrane:env", kwargs={"scenario": name})
+    for config in PAPER_CONFIGS:
+        env_id = paper_env_id(config)
+        if env_id not in gymnasium.registry:
+            gymnasium.register(
+                env_id, entry_point="multicrane.paper:PaperAssemblyEnv", kwargs={"config": config}
+            )
 
 
 _register()
 
 __all__ = [
+    "PAPER_CONFIGS",
+    "PaperAssemblyEnv",
+    "paper_env_id",
     "Event",
     "EventType",
     "Kind",

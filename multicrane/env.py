@@ -140,13 +140,9 @@ class MultiCraneEnv(ParallelEnv):
         out = sim.step(joint, order)
 
         # Reward: from the step's outcome (see multicrane.reward).
-        progress_by = out.assembled_by + out.pass_over_by
-        over = sim.over_limit()
-        complete = sim.done
-        r = reward_rules.team_reward(
-            self.scenario.reward, len(progress_by), sim.n_placed, sim.k, complete, bool(over)
-        )
+        r, progress_by, over = reward_rules.step_reward(sim, out)
         terms = reward_rules.split(r, n, progress_by, over)
+        complete = sim.done
         self.total_reward += r
 
         truncated = not complete and sim.step_count >= self.step_limit

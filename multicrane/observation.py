@@ -48,8 +48,29 @@ N_CHANNELS = N_SHARED + N_OWN
 COMPONENT_FEATURES = 14
 CRANE_FEATURES = 9
 
+# Bits of the cell grid; the first seven are also the shared channels, in this order.
 OBSTACLE, INITIAL, READY, IN_TRANSIT, PLACED, FREE_TARGET, OVER_LIMIT = range(N_SHARED)
+ANY_TARGET = 7  # a target cell, free or filled (never changes)
 MINE, MY_TARGETS = N_SHARED, N_SHARED + 1
+
+HEIGHT, MARK = 0, 1  # what a plane holds: the top cell's height, or 1 where any cell qualifies
+
+
+@dataclass(frozen=True)
+class PlaneSpec:
+    """Which plan-view planes an Observer keeps: per plane, the grid bits that qualify a
+    cell, and whether it holds the top height (``HEIGHT``) or a 0/1 mark (``MARK``)."""
+
+    masks: tuple[int, ...]
+    values: tuple[int, ...]
+    normalise: bool  # heights divided by the site height
+
+    @property
+    def n(self) -> int:
+        return len(self.masks)
+
+
+MULTI_AGENT_PLANES = PlaneSpec(tuple(1 << b for b in range(N_SHARED)), (HEIGHT,) * N_SHARED, True)
 
 
 @dataclass(frozen=True)
@@ -58,10 +79,11 @@ class ObservationLayout:
 
     plan: tuple[int, int]  # (X, Y)
     n_components: int
+    n_shared: int = N_SHARED
 
     @property
     def shared(self) -> slice:
-        return slice(0, self.plan[0] * self.plan[1] * N_SHARED)
+        return slice(0, self.plan[0] * self.plan[1] * self.n_shared)
 
     @property
     def own(self) -> slice:
@@ -99,12 +121,13 @@ class ObservationLayout:
 class Observer:
     """Builds every crane's observation from a Simulator, updating only what changed."""
 
-    def __init__(self, sim: Simulator):
+    def __init__(self, sim: Simulator, planes: PlaneSpec = MULTI_AGENT_PLANES):
         self.sim = sim
         X, Y, H = sim.scenario.size
         self.plan = (X, Y)
         self.height = H
-        self.layout = lay = ObservationLayout((X, Y), sim.n_components)
+        self.spec = planes
+        self.layout = lay = ObservationLayout((X, Y), sim.n_components, planes.n)
         self._own_start = lay.own.start
         self._components_start = lay.components.start
         self._crane = lay.crane
@@ -116,8 +139,13 @@ class Observer:
         self._xy = xy.reshape(-1).tolist()
         self._z = z.reshape(-1).tolist()
         self._byte = np.where(xy >= 0, xy * (H + 1) + z, -1).reshape(-1).tolist()
-        self._shifts = np.arange(N_SHARED, dtype=np.uint8).reshape(1, 1, N_SHARED)
-        self._zcol = (np.arange(H + 1, dtype=np.float32) / H).reshape(1, H + 1, 1)
+        # Column refresh: plane f of a column is max over z of value[z, f] * (bits & mask[f]).
+        self._masks = np.array(planes.masks, dtype=np.uint8).reshape(1, 1, planes.n)
+        z_value = np.arange(H + 1, dtype=np.float32) / (H if planes.normalise else 1)
+        self._values = np.stack(
+            [z_value if v == HEIGHT else (z_value > 0).astype(np.float32) for v in planes.values],
+            axis=1,
+        ).reshape(1, H + 1, planes.n)
         self._scale = (1.0 / max(X - 1, 1), 1.0 / max(Y - 1, 1), 1.0 / H)
         self._target_footprint = [self._footprint(cells) for cells in sim.target_cells]
         self._assembly_steps = sim.scenario.assembly_steps
@@ -143,7 +171,7 @@ class Observer:
         # The shared planes and the component table are views into the template, which
         # every crane's observation starts as a copy of.
         self.template = np.zeros(self.layout.size, dtype=np.float32)
-        self.planes = self.template[self.layout.shared].reshape(X * Y, N_SHARED)
+        self.planes = self.template[self.layout.shared].reshape(X * Y, self.spec.n)
         self.table = self.template[self.layout.components].reshape(
             sim.n_components, COMPONENT_FEATURES
         )
@@ -153,7 +181,7 @@ class Observer:
         self._painted: list[tuple[list[int], int]] = [([], 0)] * sim.n_components
         self._targets_free = [True] * sim.n_components
         for t in range(sim.n_components):
-            self._paint([], 0, 1 << FREE_TARGET, sim.target_cells[t])
+            self._paint([], 0, (1 << FREE_TARGET) | (1 << ANY_TARGET), sim.target_cells[t])
         self._ready: set[int] = set()
         self.update(sim.claimable_components(), full=True)
 
@@ -230,8 +258,8 @@ class Observer:
         sim.dirty.clear()
         if self._dirty_columns:
             idx = np.fromiter(self._dirty_columns, dtype=np.intp, count=len(self._dirty_columns))
-            has = (self.bits[idx][:, :, None] >> self._shifts) & 1
-            self.planes[idx] = (has * self._zcol).max(axis=1)
+            has = (self.bits[idx][:, :, None] & self._masks) != 0
+            self.planes[idx] = (has * self._values).max(axis=1)
             self._dirty_columns.clear()
 
     # -- per crane ---------------------------------------------------------------------------

@@ -18,7 +18,23 @@ the plain step cost to all cranes equally.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from multicrane.scenario import RewardSpec
+
+if TYPE_CHECKING:
+    from multicrane.simulator import Simulator, StepOutcome
+
+
+def step_reward(sim: Simulator, out: StepOutcome) -> tuple[float, list[int], list[int]]:
+    """The team reward of the step the simulator just made, with the cranes that made
+    progress and those past the move limit (for ``split``)."""
+    progress_by = out.assembled_by + out.pass_over_by
+    over = sim.over_limit()
+    r = team_reward(
+        sim.scenario.reward, len(progress_by), sim.n_placed, sim.k, sim.done, bool(over)
+    )
+    return r, progress_by, over
 
 
 def team_reward(

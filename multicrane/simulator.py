@@ -203,6 +203,47 @@ class Simulator:
             for crane in range(self.n_cranes):
                 self._assign(crane, events)
 
+    # -- snapshots for planners --------------------------------------------------------------
+
+    def snapshot(self) -> tuple:
+        """The mutable state, copied: ``restore`` returns to it (for search-based planners)."""
+        return (
+            self.occ.copy(),
+            self.status.copy(),
+            self.moves.copy(),
+            self.holder.copy(),
+            self.filled.copy(),
+            self.filled_by.copy(),
+            list(self.cells),  # _place replaces a component's list, never mutates it
+            list(self.held),
+            list(self.assembling),
+            list(self.pass_over),
+            self.pointer,
+            set(self.passed_over),
+            self.n_placed,
+            self.step_count,
+        )
+
+    def restore(self, snap: tuple) -> None:
+        (occ, status, moves, holder, filled, filled_by, cells, held, assembling, pass_over,
+         self.pointer, passed_over, self.n_placed, self.step_count) = snap  # fmt: skip
+        for mine, saved in (
+            (self.occ, occ),
+            (self.status, status),
+            (self.moves, moves),
+            (self.holder, holder),
+            (self.filled, filled),
+            (self.filled_by, filled_by),
+        ):
+            np.copyto(mine, saved)  # in place: the memoryviews stay valid
+        self.cells = list(cells)
+        self.held = list(held)
+        self.assembling = list(assembling)
+        self.pass_over = list(pass_over)
+        self.passed_over = set(passed_over)
+        self.dirty = set(range(self.n_components))
+        self._refresh_targets()
+
     # -- queries shared by the rules and the masks -------------------------------------------
 
     @property

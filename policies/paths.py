@@ -98,3 +98,58 @@ def path_length(sim: Simulator, comp: int, targets: list[int]) -> int:
     """Moves on a shortest path from where the component is to the nearest target."""
     dist = distance_field(sim, comp, targets)
     return int(dist[current_cells(sim, comp)[0]])
+
+
+def field_from(sim: Simulator, comp: int, stops: list[int]) -> np.ndarray:
+    """Moves from where the component is (its pick-up pose if initial) to every position.
+
+    Positions in ``stops`` are reached but never passed through: a component that covers a
+    target it may fill arrives there, so a path cannot go on through such a pose.
+    """
+    shape = current_cells(sim, comp)
+    ok = fit_mask(sim, comp, shape)
+    n = ok.size
+    dist = np.full(n, UNREACHABLE, dtype=np.int32)
+    start = shape[0]
+    dist[start] = 0
+    through = ok.copy()
+    through[stops] = False  # reached, not expanded
+    frontier = np.zeros(n, dtype=bool)
+    frontier[start] = start not in stops
+    seen = np.zeros(n, dtype=bool)
+    seen[start] = True
+    depth = 0
+    while frontier.any():
+        depth += 1
+        nxt = np.zeros(n, dtype=bool)
+        for d in sim.move_delta:
+            if d > 0:
+                nxt[d:] |= frontier[: n - d]
+            else:
+                nxt[: n + d] |= frontier[-d:]
+        nxt &= ok & ~seen
+        dist[nxt] = depth
+        seen |= nxt
+        frontier = nxt & through
+    return dist
+
+
+def path_to(sim: Simulator, dist: np.ndarray, goal: int, stops: set[int]) -> list[int]:
+    """The moves of a shortest path to ``goal`` in a ``field_from(..., stops)`` field."""
+    moves: list[int] = []
+    here = goal
+    d = int(dist[here])
+    if d < 0:
+        raise ValueError("goal unreachable")
+    while d > 0:
+        for move in range(N_MOVES):
+            prev = here - sim.move_delta[move]
+            if dist[prev] == d - 1 and (d == 1 or prev not in stops):
+                moves.append(move)
+                here = prev
+                break
+        else:
+            raise AssertionError("broken distance field")
+        d -= 1
+    moves.reverse()
+    return moves
