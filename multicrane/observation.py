@@ -151,6 +151,27 @@ class Observer:
         self._assembly_steps = sim.scenario.assembly_steps
         self._limit = max(sim.move_limit, 1)
 
+    def __getstate__(self) -> dict:
+        # A memoryview and two views into the template: rebuilt on unpickling (a copied
+        # view would no longer share the template's memory).
+        state = self.__dict__.copy()
+        for name in ("_bits", "planes", "table"):
+            state.pop(name, None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        if "template" in state:
+            self._bind_views()
+
+    def _bind_views(self) -> None:
+        X, Y = self.plan
+        self._bits = memoryview(self.bits.reshape(-1))
+        self.planes = self.template[self.layout.shared].reshape(X * Y, self.spec.n)
+        self.table = self.template[self.layout.components].reshape(
+            self.sim.n_components, COMPONENT_FEATURES
+        )
+
     def _footprint(self, cells: list[int]) -> list[tuple[int, float]]:
         """(plan index, top height / H) of each (x, y) column a set of cells covers."""
         top: dict[int, int] = {}
@@ -167,14 +188,10 @@ class Observer:
         H = self.height
         self.step_limit = step_limit
         self.bits = np.zeros((X * Y, H + 1), dtype=np.uint8)
-        self._bits = memoryview(self.bits.reshape(-1))
         # The shared planes and the component table are views into the template, which
         # every crane's observation starts as a copy of.
         self.template = np.zeros(self.layout.size, dtype=np.float32)
-        self.planes = self.template[self.layout.shared].reshape(X * Y, self.spec.n)
-        self.table = self.template[self.layout.components].reshape(
-            sim.n_components, COMPONENT_FEATURES
-        )
+        self._bind_views()
         self._dirty_columns: set[int] = set()
         obstacles = np.flatnonzero(sim._static.reshape(-1) == -1).tolist()
         self._paint(obstacles, 0, 1 << OBSTACLE)

@@ -88,6 +88,21 @@ class Simulator:
         self._static = self._static_grid()
         self.layout: Layout | None = None
 
+    # -- pickling: memoryviews are rebuilt, not pickled -------------------------------------
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        for view in ("_occ", "_status", "_target_at"):
+            state.pop(view, None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._target_at = memoryview(self.target_at)
+        if "occ" in state:  # reset has run
+            self._occ = memoryview(self.occ)
+            self._status = memoryview(self.status)
+
     # -- coordinates ---------------------------------------------------------------------
 
     def lin(self, x: int, y: int, z: int) -> int:
