@@ -8,7 +8,6 @@ stand on several targets (the paper's Env1 coin), then the random initial poses 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
@@ -35,30 +34,53 @@ def candidate_poses(scenario: Scenario, component: ComponentSpec) -> list[tuple[
     ``directions``. Poses that leave the site or the yard, touch an obstacle, or whose pick-up
     pose is not free of obstacles are left out (the caller renormalises).
     """
-    return list(_candidates(scenario, scenario.components.index(component)))
+    table = _candidates(scenario, scenario.components.index(component))
+    return list(zip(table.poses, table.probs.tolist(), strict=True))
 
 
-@lru_cache(maxsize=512)
-def _candidates(scenario: Scenario, index: int) -> tuple[tuple[Pose, float], ...]:
+@dataclass(frozen=True)
+class _Candidates:
+    poses: tuple[Pose, ...]
+    cells: np.ndarray  # (n, length) flat cell indices (see _flat)
+    probs: np.ndarray  # (n,) probability of each pose under the rule
+
+
+_CACHE: dict[tuple[str, str, int], _Candidates] = {}
+
+
+def _flat(scenario: Scenario, cell: tuple[int, int, int]) -> int:
+    X, Y, H = scenario.size
+    return (cell[0] * Y + cell[1]) * (H + 1) + cell[2]
+
+
+def _candidates(scenario: Scenario, index: int) -> _Candidates:
+    """Computed once per scenario content and component (keyed by the file's hash)."""
+    key = (scenario.sha256, scenario.source, index)
+    if key in _CACHE:
+        return _CACHE[key]
     rule = scenario.random_start
     assert rule is not None
     component = scenario.components[index]
     obstacle = scenario.obstacle_cells()
     xs = [x for band in rule.bands for x in range(band.x[0], band.x[1] + 1)]
-    out: list[tuple[Pose, float]] = []
+    poses: list[Pose] = []
+    probs: list[float] = []
     for band in rule.bands:
         ys = range(band.y[0], band.y[1] + 1)
         for x in range(band.x[0], band.x[1] + 1):
             for y in ys:
                 for d in rule.directions:
-                    n1 = (x, y, rule.z)
                     k = component.length - 1
-                    n2 = (x + k * d[0], y + k * d[1], rule.z + k * d[2])
-                    pose = (n1, n2)
+                    pose = ((x, y, rule.z), (x + k * d[0], y + k * d[1], rule.z + k * d[2]))
                     if _usable(scenario, component, pose, obstacle):
-                        p = 1.0 / (len(xs) * len(ys) * len(rule.directions))
-                        out.append((pose, p))
-    return tuple(out)
+                        poses.append(pose)
+                        probs.append(1.0 / (len(xs) * len(ys) * len(rule.directions)))
+    cells = np.array(
+        [[_flat(scenario, c) for c in geometry.pose_cells(*p)] for p in poses], dtype=np.intp
+    ).reshape(len(poses), component.length)
+    table = _Candidates(tuple(poses), cells, np.array(probs))
+    _CACHE[key] = table
+    return table
 
 
 def _usable(scenario: Scenario, component: ComponentSpec, pose: Pose, obstacle: set) -> bool:
@@ -93,10 +115,11 @@ def draw_layout(scenario: Scenario, rng: np.random.Generator) -> Layout:
             prebuilt_target[i] = int(choices[int(rng.integers(len(choices)))])
             taken_targets.add(prebuilt_target[i])
 
-    fixed: set[tuple[int, int, int]] = set()
+    X, Y, H = scenario.size
+    fixed = np.zeros(X * Y * (H + 1), dtype=bool)
     for c in comps:
         if c.initial is not None:
-            fixed.update(geometry.pose_cells(*c.initial))
+            fixed[[_flat(scenario, cell) for cell in geometry.pose_cells(*c.initial)]] = True
     drawn = [i for i in scenario.order if comps[i].initial is None and not comps[i].prebuilt]
     for _ in range(MAX_LAYOUT_ATTEMPTS):
         poses = _draw_random_poses(scenario, drawn, fixed, rng)
@@ -111,22 +134,22 @@ def draw_layout(scenario: Scenario, rng: np.random.Generator) -> Layout:
 
 
 def _draw_random_poses(
-    scenario: Scenario, drawn: list[int], fixed: set, rng: np.random.Generator
+    scenario: Scenario, drawn: list[int], fixed: np.ndarray, rng: np.random.Generator
 ) -> dict[int, Pose] | None:
-    """One attempt: place the drawn components in list order; None when one finds no pose."""
-    occupied = set(fixed)
+    """One attempt: place the drawn components in list order; None when one finds no pose.
+
+    A draw that would overlap an earlier component is redrawn: drawing among the free poses
+    with renormalised probabilities is the same distribution, without the loop.
+    """
+    occupied = fixed.copy()
     poses: dict[int, Pose] = {}
     for i in drawn:
-        options = [
-            (pose, p)
-            for pose, p in _candidates(scenario, i)
-            if not occupied.intersection(geometry.pose_cells(*pose))
-        ]
-        if not options:
+        table = _candidates(scenario, i)
+        free = ~occupied[table.cells].any(axis=1)
+        if not free.any():
             return None
-        weights = np.array([p for _, p in options])
-        pick = int(rng.choice(len(options), p=weights / weights.sum()))
-        pose = options[pick][0]
-        poses[i] = pose
-        occupied.update(geometry.pose_cells(*pose))
+        weights = table.probs * free
+        pick = int(rng.choice(len(weights), p=weights / weights.sum()))
+        poses[i] = table.poses[pick]
+        occupied[table.cells[pick]] = True
     return poses

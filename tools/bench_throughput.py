@@ -3,6 +3,7 @@
     python tools/bench_throughput.py --scenario e2s2 --cranes 1
     python tools/bench_throughput.py --scenario hall-4c --cranes 4 --steps 50000
     python tools/bench_throughput.py --all        # every shipped scenario, 1 and 4 cranes
+    python tools/bench_throughput.py --paper E1S1 # the single-agent paper mode (Gymnasium)
 
 Each joint step includes the observations and masks the environment returns and the choice of
 a random legal action per crane (from the mask, as a masked policy would). Resets are
@@ -43,6 +44,20 @@ def bench_parallel(
     return steps / (time.perf_counter() - start)
 
 
+def bench_paper(config: str, steps: int, seed: int = 0) -> float:
+    """Steps per second of the single-agent paper mode, uniform random actions."""
+    env = multicrane.PaperAssemblyEnv(config)
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    actions = rng.integers(6, size=steps).tolist()
+    start = time.perf_counter()
+    for a in actions:
+        _, _, terminated, truncated, _ = env.step(a)
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.perf_counter() - start)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -52,7 +67,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--steps", type=int, default=20000)
     p.add_argument("--auto", action="store_true", help="automatic claiming and assembly")
     p.add_argument("--all", action="store_true", help="every shipped scenario with 1 and 4 cranes")
+    p.add_argument("--paper", metavar="CONFIG", nargs="*", help="paper mode configurations")
     args = p.parse_args(argv)
+    if args.paper is not None:
+        print(f"{'config':<12} {'mode':>7} {'steps/s':>14}")
+        for config in args.paper or multicrane.PAPER_CONFIGS:
+            rate = bench_paper(config, args.steps)
+            print(f"{config:<12} {'paper':>7} {rate:>14,.0f}")
+        return 0
     runs = (
         [(name, n) for name in multicrane.scenario_names() for n in (1, 4)]
         if args.all
