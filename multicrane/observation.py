@@ -148,6 +148,8 @@ class Observer:
         ).reshape(1, H + 1, planes.n)
         self._scale = (1.0 / max(X - 1, 1), 1.0 / max(Y - 1, 1), 1.0 / H)
         self._target_footprint = [self._footprint(cells) for cells in sim.target_cells]
+        # Per component: (ready targets, obs indices, values) of its MY_TARGETS plane.
+        self._my_targets: dict[int, tuple[list[int], np.ndarray, np.ndarray]] = {}
         self._assembly_steps = sim.scenario.assembly_steps
         self._limit = max(sim.move_limit, 1)
 
@@ -281,6 +283,15 @@ class Observer:
 
     # -- per crane ---------------------------------------------------------------------------
 
+    def _targets_plane(self, targets: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """Observation indices and values of the MY_TARGETS plane for a set of targets."""
+        top: dict[int, float] = {}
+        for t in targets:
+            for p, z in self._target_footprint[t]:
+                top[p] = max(top.get(p, 0.0), z)
+        idx = np.array([self._own_start + p * N_OWN + 1 for p in top], dtype=np.intp)
+        return idx, np.array(list(top.values()), dtype=np.float32)
+
     def observe(self, crane: int) -> np.ndarray:
         """A fresh array (the caller may keep it) with this crane's observation."""
         sim = self.sim
@@ -290,10 +301,12 @@ class Observer:
             own = self._own_start
             for p, z in self._footprint(sim.cells[comp]):
                 obs[own + p * N_OWN] = z
-            footprints = self._target_footprint
-            for t in sim.ready_targets(comp):
-                for p, z in footprints[t]:
-                    obs[own + p * N_OWN + 1] = z
+            ready = sim.ready_targets(comp)
+            cached = self._my_targets.get(comp)
+            if cached is None or cached[0] != ready:
+                cached = (ready, *self._targets_plane(ready))
+                self._my_targets[comp] = cached
+            obs[cached[1]] = cached[2]
             obs[self._components_start + comp * COMPONENT_FEATURES + 6] = 1.0
             status = sim._status[comp]
             moves = int(sim.moves[comp])
