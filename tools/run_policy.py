@@ -1,6 +1,6 @@
 """Run policies on a scenario and print what they achieve.
 
-    python tools/run_policy.py --scenario frame2-3c --cranes 3 --policy greedy random --episodes 5
+    python tools/run_policy.py --scenario frame2-3c --cranes 3 --policy prioritized greedy random
     python tools/run_policy.py --scenario e2s2 --policy greedy --render   # watch one episode
 
 Prints, per policy: mean team return ± standard error, success rate, mean steps (joint steps
@@ -19,10 +19,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import multicrane  # noqa: E402
 from policies.greedy import GreedyPolicy, run_episode  # noqa: E402
+from policies.prioritized import PrioritizedPlanner  # noqa: E402
 from policies.random_policy import RandomPolicy  # noqa: E402
 
 POLICIES = {
     "greedy": lambda env, seed: GreedyPolicy(env, seed=seed),
+    "prioritized": lambda env, seed: PrioritizedPlanner(env, seed=seed),
     "random": lambda env, seed: RandomPolicy(seed=seed),
 }
 
@@ -35,7 +37,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument(
         "--cranes", type=int, default=None, help="number of cranes (default: scenario's)"
     )
-    p.add_argument("--policy", nargs="+", default=["greedy", "random"], choices=sorted(POLICIES))
+    p.add_argument(
+        "--policy", nargs="+", default=["prioritized", "greedy", "random"], choices=sorted(POLICIES)
+    )
     p.add_argument("--episodes", type=int, default=5)
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--auto", action="store_true", help="automatic claiming and assembly (paper)")
