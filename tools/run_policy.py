@@ -22,10 +22,12 @@ from policies.greedy import GreedyPolicy, run_episode  # noqa: E402
 from policies.prioritized import PrioritizedPlanner  # noqa: E402
 from policies.random_policy import RandomPolicy  # noqa: E402
 
+# A policy's own random stream is seeded with [seed, 1]: the environment's generator is
+# default_rng(seed), and the same seed would make the policy repeat the layout's draws.
 POLICIES = {
-    "greedy": lambda env, seed: GreedyPolicy(env, seed=seed),
+    "greedy": lambda env, seed: GreedyPolicy(env, seed=[seed, 1]),
     "prioritized": lambda env, seed: PrioritizedPlanner(env, seed=seed),
-    "random": lambda env, seed: RandomPolicy(seed=seed),
+    "random": lambda env, seed: RandomPolicy(seed=[seed, 1]),
 }
 
 
