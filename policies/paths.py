@@ -24,21 +24,56 @@ def current_cells(sim: Simulator, comp: int) -> list[int]:
     return sim.cells[comp] if sim.status[comp] != Status.INITIAL else sim.pickup[comp]
 
 
+def fits_everywhere(free: np.ndarray, offsets) -> np.ndarray:
+    """Boolean per position p: every cell ``p + o`` (o in ``offsets``) is free."""
+    n = free.size
+    ok = np.ones(n, dtype=bool)
+    for o in offsets:
+        if o > 0:
+            ok[: n - o] &= free[o:]
+            ok[n - o :] = False  # p + o would leave the array
+        elif o == 0:
+            ok &= free
+        else:
+            ok[-o:] &= free[: n + o]
+            ok[:-o] = False
+    return ok
+
+
+def breadth_first(
+    ok: np.ndarray, starts: list[int], deltas, through: np.ndarray | None = None
+) -> np.ndarray:
+    """Moves from the nearest start to every position, over positions in ``ok`` (the moves
+    are symmetric, so this is also the distance *to* the nearest start). Positions outside
+    ``through`` are reached but not expanded. ``UNREACHABLE`` where none."""
+    n = ok.size
+    dist = np.full(n, UNREACHABLE, dtype=np.int32)
+    frontier = np.zeros(n, dtype=bool)
+    frontier[[s for s in starts if ok[s]]] = True
+    dist[frontier] = 0
+    seen = frontier.copy()
+    if through is not None:
+        frontier &= through
+    depth = 0
+    while frontier.any():
+        depth += 1
+        nxt = np.zeros(n, dtype=bool)
+        for d in deltas:
+            if d > 0:
+                nxt[d:] |= frontier[: n - d]
+            else:
+                nxt[: n + d] |= frontier[-d:]
+        nxt &= ok & ~seen
+        dist[nxt] = depth
+        seen |= nxt
+        frontier = nxt if through is None else nxt & through
+    return dist
+
+
 def fit_mask(sim: Simulator, comp: int, shape: list[int]) -> np.ndarray:
     """Boolean per position: the component, shaped as ``shape``, fits there."""
     free = (sim.occ == FREE) | (sim.occ == comp + 1)
-    n = free.size
-    ok = free.copy()
-    base = shape[0]
-    for j in shape[1:]:
-        o = j - base
-        shifted = np.zeros(n, dtype=bool)
-        if o > 0:
-            shifted[: n - o] = free[o:]
-        else:
-            shifted[-o:] = free[: n + o]
-        ok &= shifted
-    return ok
+    return fits_everywhere(free, [j - shape[0] for j in shape])
 
 
 def goal_positions(sim: Simulator, comp: int, targets: list[int]) -> list[int]:
@@ -56,30 +91,8 @@ def goal_positions(sim: Simulator, comp: int, targets: list[int]) -> list[int]:
 
 def distance_field(sim: Simulator, comp: int, targets: list[int]) -> np.ndarray:
     """Moves from every position to the nearest goal (``UNREACHABLE`` where none)."""
-    shape = current_cells(sim, comp)
-    ok = fit_mask(sim, comp, shape)
-    n = ok.size
-    dist = np.full(n, UNREACHABLE, dtype=np.int32)
-    frontier = np.zeros(n, dtype=bool)
-    for g in goal_positions(sim, comp, targets):
-        if ok[g]:
-            frontier[g] = True
-    dist[frontier] = 0
-    seen = frontier.copy()
-    depth = 0
-    while frontier.any():
-        depth += 1
-        nxt = np.zeros(n, dtype=bool)
-        for d in sim.move_delta:
-            if d > 0:
-                nxt[: n - d] |= frontier[d:]
-            else:
-                nxt[-d:] |= frontier[: n + d]
-        nxt &= ok & ~seen
-        dist[nxt] = depth
-        seen |= nxt
-        frontier = nxt
-    return dist
+    ok = fit_mask(sim, comp, current_cells(sim, comp))
+    return breadth_first(ok, goal_positions(sim, comp, targets), sim.move_delta)
 
 
 def next_move(sim: Simulator, comp: int, dist: np.ndarray) -> int | None:
@@ -108,30 +121,9 @@ def field_from(sim: Simulator, comp: int, stops: list[int]) -> np.ndarray:
     """
     shape = current_cells(sim, comp)
     ok = fit_mask(sim, comp, shape)
-    n = ok.size
-    dist = np.full(n, UNREACHABLE, dtype=np.int32)
-    start = shape[0]
-    dist[start] = 0
     through = ok.copy()
-    through[stops] = False  # reached, not expanded
-    frontier = np.zeros(n, dtype=bool)
-    frontier[start] = start not in stops
-    seen = np.zeros(n, dtype=bool)
-    seen[start] = True
-    depth = 0
-    while frontier.any():
-        depth += 1
-        nxt = np.zeros(n, dtype=bool)
-        for d in sim.move_delta:
-            if d > 0:
-                nxt[d:] |= frontier[: n - d]
-            else:
-                nxt[: n + d] |= frontier[-d:]
-        nxt &= ok & ~seen
-        dist[nxt] = depth
-        seen |= nxt
-        frontier = nxt & through
-    return dist
+    through[stops] = False
+    return breadth_first(ok, [shape[0]], sim.move_delta, through)
 
 
 def path_to(sim: Simulator, dist: np.ndarray, goal: int, stops: set[int]) -> list[int]:

@@ -79,6 +79,7 @@ import numpy as np
 
 from multicrane.simulator import FREE, NOBODY, WALL, Simulator
 from multicrane.types import ASSEMBLE, CLAIM_BASE, WAIT, Status
+from policies.paths import breadth_first, fits_everywhere
 
 INF = 1 << 40  # "for ever" in the reservation table
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
@@ -347,7 +348,7 @@ class PrioritizedPlanner:
             self._base_key, self._base_free, self._fit = key, free, {}
         ok = self._fit.get(rel)
         if ok is None:
-            ok = _fit(self._base_free, rel).tobytes()
+            ok = fits_everywhere(self._base_free, rel).tobytes()
             self._fit[rel] = ok
         return ok
 
@@ -363,7 +364,7 @@ class PrioritizedPlanner:
             for comp in range(sim.n_components):
                 if sim.status[comp] >= _ARRIVED:
                     free[sim.cells[comp]] = False
-            h = _bfs(_fit(free, rel), goal, self._deltas).tolist()
+            h = breadth_first(fits_everywhere(free, rel), [goal], self._deltas).tolist()
             self._h_cache[(rel, goal)] = h
         return h
 
@@ -606,47 +607,6 @@ class PrioritizedPlanner:
 
 
 # -- array helpers ------------------------------------------------------------------------------
-
-
-def _fit(free: np.ndarray, rel: tuple[int, ...]) -> np.ndarray:
-    """Boolean per position: every cell ``position + r`` (r in rel) is free."""
-    n = free.size
-    ok = np.ones(n, dtype=bool)
-    for o in rel:
-        if o >= 0:
-            ok[: n - o] &= free[o:]
-            if o:
-                ok[n - o :] = False
-        else:
-            ok[-o:] &= free[: n + o]
-            ok[:-o] = False
-    return ok
-
-
-def _bfs(ok: np.ndarray, goal: int, deltas: list[int]) -> np.ndarray:
-    """Moves from every position to ``goal`` over the positions in ``ok`` (-1: none)."""
-    n = ok.size
-    dist = np.full(n, -1, dtype=np.int32)
-    if not ok[goal]:
-        return dist
-    frontier = np.zeros(n, dtype=bool)
-    frontier[goal] = True
-    dist[goal] = 0
-    seen = frontier.copy()
-    depth = 0
-    while frontier.any():
-        depth += 1
-        nxt = np.zeros(n, dtype=bool)
-        for d in deltas:
-            if d > 0:
-                nxt[: n - d] |= frontier[d:]
-            else:
-                nxt[-d:] |= frontier[: n + d]
-        nxt &= ok & ~seen
-        dist[nxt] = depth
-        seen |= nxt
-        frontier = nxt
-    return dist
 
 
 def _manhattan(a: tuple[int, int, int], b: tuple[int, int, int]) -> int:

@@ -35,9 +35,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
-import platform
 import re
-import shlex
 import statistics
 import sys
 import time
@@ -54,6 +52,7 @@ from policies.greedy import GreedyPolicy  # noqa: E402
 from policies.metrics import aggregate, run_with_metrics  # noqa: E402
 from policies.prioritized import PrioritizedPlanner  # noqa: E402
 from policies.random_policy import RandomPolicy  # noqa: E402
+from tools.report import command_line, machine  # noqa: E402
 
 RANDOM_STREAM = 1
 PLANNERS = ("greedy", "prioritized")
@@ -293,35 +292,6 @@ def _md(head: list[str], rows: list[list[str]], left: int = 1) -> list[str]:
     return out
 
 
-def _command(argv: list[str] | None) -> str:
-    python = Path(sys.executable)
-    try:
-        python = python.relative_to(ROOT)
-    except ValueError:
-        python = Path(python.name)
-    script = Path(__file__).resolve().relative_to(ROOT)
-    args = sys.argv[1:] if argv is None else argv
-    return shlex.join([str(python), str(script), *args])
-
-
-def _machine() -> str:
-    model = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    load = ""
-    if hasattr(os, "getloadavg"):
-        load = f", load average {os.getloadavg()[0]:.1f} at the end of the run (shared machine)"
-    return (
-        f"{os.cpu_count()}-core {model} CPU, {platform.system()}, "
-        f"{platform.python_implementation()} {platform.python_version()}{load}"
-    )
-
-
 def _cranes(n: int) -> str:
     return f"{n} crane{'s' if n != 1 else ''}"
 
@@ -539,9 +509,9 @@ def markdown_page(
         "applies. A learned multi-crane policy should be compared with the *prioritized* "
         "column: it is what a good classical planner achieves on the same scenarios and seeds.",
         "",
-        f"- Command: `{_command(argv)}` (from the repository root).",
+        f"- Command: `{command_line(__file__, argv)}` (from the repository root).",
         f"- Date: {datetime.date.today().isoformat()}.",
-        f"- Machine: {_machine()}.",
+        f"- Machine: {machine()}.",
         f"- Episodes: greedy and prioritized {args.seeds} per setting ({seeds}, passed to "
         f"`reset(seed=...)`); random {args.random_seeds} per setting ({rseeds}; it mostly runs "
         "to the step limit); optimal on the planners' seeds.",

@@ -28,9 +28,6 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import os
-import platform
-import shlex
 import statistics
 import sys
 import time
@@ -47,6 +44,7 @@ from multicrane.paper import PAPER_CONFIGS, PaperAssemblyEnv  # noqa: E402
 from policies.optimal import plan  # noqa: E402
 from policies.paper_greedy import PaperGreedyPolicy  # noqa: E402
 from policies.random_policy import RandomPolicy  # noqa: E402
+from tools.report import command_line, machine  # noqa: E402
 
 ALGORITHMS = ("DQN", "DDQN", "A2C", "PPO")
 
@@ -239,35 +237,6 @@ def text_table(rows: list[Row], args: argparse.Namespace, wall: float) -> str:
 # -- markdown page -------------------------------------------------------------------------------
 
 
-def _command(argv: list[str] | None) -> str:
-    python = Path(sys.executable)
-    try:
-        python = python.relative_to(ROOT)
-    except ValueError:
-        python = Path(python.name)
-    script = Path(__file__).resolve().relative_to(ROOT)
-    args = sys.argv[1:] if argv is None else argv
-    return shlex.join([str(python), str(script), *args])
-
-
-def _machine() -> str:
-    model = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    load = ""
-    if hasattr(os, "getloadavg"):
-        load = f", load average {os.getloadavg()[0]:.1f} at the end of the run (shared machine)"
-    return (
-        f"{os.cpu_count()}-core {model} CPU, {platform.system()}, "
-        f"{platform.python_implementation()} {platform.python_version()}{load}"
-    )
-
-
 def _configs(rows: list[Row]) -> str:
     return ", ".join(r.config for r in rows) if rows else "none"
 
@@ -398,9 +367,9 @@ def markdown_page(
         "how far an entry lies below the best return achievable in our environment, not how "
         "good the paper's agents were in theirs.",
         "",
-        f"- Command: `{_command(argv)}` (from the repository root).",
+        f"- Command: `{command_line(__file__, argv)}` (from the repository root).",
         f"- Date: {datetime.date.today().isoformat()}.",
-        f"- Machine: {_machine()}.",
+        f"- Machine: {machine()}.",
         f"- Episodes: {args.episodes} per configuration, {_seeds(args)} (passed to "
         "`reset(seed=...)`); the same seeds for all three policies.",
         f"- {_timing(rows, wall)}",
