@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import operator
 from typing import Any
 
 import gymnasium as gym
@@ -107,7 +108,9 @@ class PaperAssemblyEnv(gym.Env):
         render_mode: str | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+            # Gymnasium's convention: warn, do not fail (SB3's make_vec_env asks for
+            # "rgb_array" by default); render() then returns None.
+            gym.logger.warn(f"render_mode {render_mode!r} is not supported (only 'ansi')")
         if scenario is None:
             if config is None:
                 raise ValueError("give a paper configuration (config=) or a scenario (scenario=)")
@@ -134,7 +137,10 @@ class PaperAssemblyEnv(gym.Env):
 
     def step(self, action):
         sim = self.sim
-        a = int(action)
+        try:
+            a = operator.index(action)  # ints and numpy integers; not floats
+        except TypeError:
+            raise ValueError(f"action must be an integer 0..5, got {action!r}") from None
         if not 0 <= a < N_MOVES:
             raise ValueError(f"action must be 0..5 (x-1, y-1, x+1, y+1, up, down), got {action!r}")
         out = sim.step([a])

@@ -1,0 +1,344 @@
+"""Episode records: a small file from which an episode can be re-simulated exactly.
+
+    from multicrane.record import EpisodeRecord, record_episode, resimulate
+    rec = record_episode(env, policy, seed=3, policy_name="prioritized")
+    rec.save("episode.json.gz")                 # JSON; gzip when the name ends in .gz
+    env, rewards, final = resimulate(EpisodeRecord.load("episode.json.gz"))
+
+A record holds the scenario (name, source and the SHA-256 of its file), the seed, the number
+of cranes, the options (``auto``, ``max_steps``), the joint actions (one list per step, in
+agent order), the events of each step (type name, crane, component) and the final metrics
+(return, steps, success, and the final component states). The environment draws each step's
+crane order from its generator seeded at reset, so the same seed and actions give the same
+episode. :func:`resimulate` refuses a record whose scenario file changed
+(:class:`ScenarioMismatchError`) and one whose re-simulation differs from what was recorded
+(:class:`RecordMismatchError`); both are ``ValueError`` subclasses.
+
+This module does not import rerun (see ``multicrane.replay`` for the 3D viewer).
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+from multicrane.env import MultiCraneEnv
+from multicrane.scenario import Scenario, load_scenario, scenario_names, scenarios_dir
+
+RECORD_FORMAT = 1
+
+EventRow = tuple[str, int, int]  # (event type name, crane, component or -1)
+
+
+class RecordError(ValueError):
+    """An episode record that cannot be used; the message says why."""
+
+
+class ScenarioMismatchError(RecordError):
+    """The record's scenario file changed since it was recorded (its hash differs)."""
+
+
+class RecordMismatchError(RecordError):
+    """Re-simulating the record did not reproduce the recorded episode."""
+
+
+class StepObserver(Protocol):
+    """Something that watches an episode as it runs (e.g. ``multicrane.replay`` collectors)."""
+
+    def on_reset(self, env: MultiCraneEnv) -> None: ...
+
+    def on_step(
+        self, env: MultiCraneEnv, actions: list[int], reward: float, events: list[EventRow]
+    ) -> None: ...
+
+
+@dataclass
+class EpisodeRecord:
+    """One episode: enough to re-simulate it exactly, and what it achieved."""
+
+    scenario: str  # scenario name
+    scenario_sha256: str
+    scenario_source: str  # the file it was loaded from (a shipped name is tried if missing)
+    seed: int
+    n_cranes: int
+    auto: bool
+    max_steps: int
+    actions: list[list[int]] = field(default_factory=list)
+    events: list[list[EventRow]] = field(default_factory=list)
+    metrics: dict[str, Any] = field(default_factory=dict)
+    policy: str = ""
+    format: int = RECORD_FORMAT
+
+    @property
+    def steps(self) -> int:
+        return len(self.actions)
+
+    # -- files ---------------------------------------------------------------------------
+
+    def to_dict(self) -> dict[str, Any]:
+        data = asdict(self)
+        data["events"] = [[list(e) for e in step] for step in self.events]
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> EpisodeRecord:
+        if not isinstance(data, dict):
+            raise RecordError(f"{source}: not an episode record (top level is not an object)")
+        fmt = data.get("format")
+        if fmt != RECORD_FORMAT:
+            raise RecordError(f"{source}: record format {fmt!r} is not {RECORD_FORMAT}")
+        try:
+            return cls(
+                scenario=str(data["scenario"]),
+                scenario_sha256=str(data["scenario_sha256"]),
+                scenario_source=str(data.get("scenario_source", "")),
+                seed=int(data["seed"]),
+                n_cranes=int(data["n_cranes"]),
+                auto=bool(data["auto"]),
+                max_steps=int(data["max_steps"]),
+                actions=[[int(a) for a in step] for step in data["actions"]],
+                events=[[(str(t), int(c), int(k)) for t, c, k in step] for step in data["events"]],
+                metrics=dict(data["metrics"]),
+                policy=str(data.get("policy", "")),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RecordError(f"{source}: malformed episode record ({exc!r})") from None
+
+    def save(self, path: str | Path) -> Path:
+        """Write JSON (gzip-compressed when the name ends in ``.gz``)."""
+        path = Path(path)
+        text = json.dumps(self.to_dict(), separators=(",", ":"))
+        if path.suffix == ".gz":
+            with gzip.open(path, "wt", encoding="utf-8") as f:
+                f.write(text)
+        else:
+            path.write_text(text, encoding="utf-8")
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> EpisodeRecord:
+        path = Path(path)
+        try:
+            if path.suffix == ".gz":
+                with gzip.open(path, "rt", encoding="utf-8") as f:
+                    data = json.load(f)
+            else:
+                data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError, UnicodeError) as exc:
+            raise RecordError(f"{path}: cannot read episode record: {exc}") from None
+        return cls.from_dict(data, source=str(path))
+
+    # -- the scenario --------------------------------------------------------------------
+
+    def load_scenario(self, scenario: str | Path | Scenario | None = None) -> Scenario:
+        """The record's scenario (or ``scenario`` if given), checked against the stored hash."""
+        if scenario is None:
+            source = Path(self.scenario_source) if self.scenario_source else None
+            if source is not None and source.is_file():
+                scenario = source
+            elif self.scenario.lower() in scenario_names():
+                scenario = self.scenario
+            else:
+                raise RecordError(
+                    f"episode record: scenario {self.scenario!r} not found "
+                    f"(file {self.scenario_source!r} missing and not a shipped name)"
+                )
+        s = load_scenario(scenario)
+        if s.sha256 != self.scenario_sha256:
+            raise ScenarioMismatchError(
+                f"episode record refused: scenario {self.scenario!r} ({s.source}) no longer "
+                f"matches the record: recorded hash {self.scenario_sha256}, current file hash "
+                f"{s.sha256}; the scenario changed since the episode was recorded"
+            )
+        return s
+
+    def make_env(self, scenario: str | Path | Scenario | None = None) -> MultiCraneEnv:
+        """A fresh environment configured as the recorded one (not yet reset)."""
+        return MultiCraneEnv(
+            self.load_scenario(scenario),
+            n_cranes=self.n_cranes,
+            auto=self.auto,
+            max_steps=self.max_steps,
+        )
+
+
+# ---------------------------------------------------------------------------------------------
+# Recording
+
+
+def _events_of(env: MultiCraneEnv, infos: dict) -> list[EventRow]:
+    return [
+        (e.type.name, int(e.crane), int(e.component))
+        for a in env.possible_agents
+        for e in infos[a]["events"]
+    ]
+
+
+def _source_name(s: Scenario) -> str:
+    """A shipped scenario is stored by name (portable across installs), else by path."""
+    try:
+        shipped = Path(s.source).resolve().parent == scenarios_dir().resolve()
+    except OSError:
+        shipped = False
+    return s.name if shipped else str(Path(s.source).resolve())
+
+
+def final_state(env: MultiCraneEnv) -> dict[str, Any]:
+    """The end state that a re-simulation must reproduce: statuses, cells, held, step."""
+    sim = env.sim
+    return {
+        "status": [int(s) for s in sim.status],
+        "cells": [sorted(sim.cell(j) for j in cells) for cells in sim.cells],
+        "held": [int(h) for h in sim.held],
+        "step": int(sim.step_count),
+    }
+
+
+def record_episode(
+    env: MultiCraneEnv,
+    policy: Callable[[dict], dict],
+    seed: int,
+    policy_name: str = "",
+    observers: Sequence[StepObserver] = (),
+) -> EpisodeRecord:
+    """Run one episode of ``env`` with ``policy`` from ``seed`` and record it.
+
+    ``observers`` see the reset and every step (a replay collector, a live viewer).
+    """
+    s = env.scenario
+    rec = EpisodeRecord(
+        scenario=s.name,
+        scenario_sha256=s.sha256,
+        scenario_source=_source_name(s),
+        seed=int(seed),
+        n_cranes=env.sim.n_cranes,
+        auto=bool(env.auto),
+        max_steps=int(env.step_limit),
+        policy=policy_name,
+    )
+    observations, _ = env.reset(seed=int(seed))
+    for obs in observers:
+        obs.on_reset(env)
+    agents = env.possible_agents
+    first = agents[0]
+    total, success = 0.0, False
+    while env.agents:
+        action_dict = policy(observations)
+        joint = [int(action_dict[a]) for a in agents]
+        observations, rewards, terms, truncs, infos = env.step(
+            dict(zip(agents, joint, strict=True))
+        )
+        r = float(rewards[first])
+        total += r
+        events = _events_of(env, infos)
+        rec.actions.append(joint)
+        rec.events.append(events)
+        for obs in observers:
+            obs.on_step(env, joint, r, events)
+        success = bool(terms[first])
+    rec.metrics = {
+        "return": total,
+        "steps": len(rec.actions),
+        "success": success,
+        "final_status": [int(x) for x in env.sim.status],
+    }
+    return rec
+
+
+# ---------------------------------------------------------------------------------------------
+# Re-simulation
+
+
+def replay_steps(
+    record: EpisodeRecord,
+    scenario: str | Path | Scenario | None = None,
+    observers: Sequence[StepObserver] = (),
+    check: bool = True,
+) -> Iterator[tuple[MultiCraneEnv, int, float, list[EventRow]]]:
+    """Re-simulate a record step by step: yields ``(env, step, reward, events)``, first for
+    the reset (step 0, reward 0), then after each step. With ``check`` every step's events
+    must equal the recorded ones, else :class:`RecordMismatchError`."""
+    env = record.make_env(scenario)
+    agents = env.possible_agents
+    if len(agents) != record.n_cranes:
+        raise RecordError(f"episode record: {record.n_cranes} cranes, env has {len(agents)}")
+    env.reset(seed=record.seed)
+    for obs in observers:
+        obs.on_reset(env)
+    yield env, 0, 0.0, []
+    for t, joint in enumerate(record.actions, start=1):
+        if not env.agents:
+            raise RecordMismatchError(
+                f"episode record refused: the re-simulated episode of {record.scenario!r} "
+                f"ended after {t - 1} steps but the record has {record.steps}"
+            )
+        if len(joint) != len(agents):
+            raise RecordError(
+                f"episode record: step {t} has {len(joint)} actions, not {len(agents)}"
+            )
+        _, rewards, _, _, infos = env.step(dict(zip(agents, joint, strict=True)))
+        r = float(rewards[agents[0]])
+        events = _events_of(env, infos)
+        if check and t <= len(record.events) and events != list(record.events[t - 1]):
+            raise RecordMismatchError(
+                f"episode record refused: step {t} of {record.scenario!r} re-simulates to "
+                f"events {events} but the record has {list(record.events[t - 1])}"
+            )
+        for obs in observers:
+            obs.on_step(env, joint, r, events)
+        yield env, t, r, events
+
+
+def resimulate(
+    record: EpisodeRecord,
+    scenario: str | Path | Scenario | None = None,
+    observers: Sequence[StepObserver] = (),
+) -> tuple[MultiCraneEnv, list[float], dict[str, Any]]:
+    """Re-simulate a record exactly: ``(env, per-step rewards, final state)``.
+
+    Raises :class:`ScenarioMismatchError` when the scenario file changed and
+    :class:`RecordMismatchError` when the re-simulation does not reproduce the recorded
+    events, return, length or final states.
+    """
+    rewards: list[float] = []
+    env = None
+    for step_env, t, r, _ in replay_steps(record, scenario, observers):
+        env = step_env
+        if t:
+            rewards.append(r)
+    assert env is not None
+    total = sum(rewards)
+    m = record.metrics
+    problems = []
+    if env.agents:
+        problems.append(f"the episode is not over after the recorded {record.steps} steps")
+    if "return" in m and abs(total - float(m["return"])) > 1e-6 * max(1.0, abs(total)):
+        problems.append(f"return {total:g} differs from the recorded {float(m['return']):g}")
+    if "steps" in m and int(m["steps"]) != len(rewards):
+        problems.append(f"{len(rewards)} steps, the record says {m['steps']}")
+    final = final_state(env)
+    if "final_status" in m and list(m["final_status"]) != final["status"]:
+        problems.append("the final component states differ from the recorded ones")
+    if problems:
+        raise RecordMismatchError(
+            f"episode record refused: {record.scenario!r} (seed {record.seed}): "
+            + "; ".join(problems)
+        )
+    return env, rewards, final
+
+
+__all__ = [
+    "EpisodeRecord",
+    "RecordError",
+    "RecordMismatchError",
+    "ScenarioMismatchError",
+    "StepObserver",
+    "final_state",
+    "record_episode",
+    "replay_steps",
+    "resimulate",
+]
