@@ -374,10 +374,24 @@ class Simulator:
             if status == _ARRIVED:
                 row[ASSEMBLE] = 1
             elif status == _IN_TRANSIT or (status == _INITIAL and self.can_lift(comp)):
-                for m in range(N_MOVES):
-                    if self.move_ok(comp, m):
-                        row[m] = 1
+                row[:N_MOVES] = self.moves_ok(comp)
         return masks
+
+    def moves_ok(self, comp: int) -> list[bool]:
+        """``move_ok`` for the six moves at once."""
+        cells = self.cells[comp] if self._status[comp] == _IN_TRANSIT else self.pickup[comp]
+        occ = self._occ
+        own = comp + 1
+        out = []
+        for d in self.move_delta:
+            for j in cells:
+                v = occ[j + d]
+                if v != FREE and v != own:
+                    out.append(False)
+                    break
+            else:
+                out.append(True)
+        return out
 
     def over_limit(self) -> list[int]:
         """Cranes holding a component that has made more moves than the move limit."""
