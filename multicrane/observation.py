@@ -146,7 +146,12 @@ class Observer:
             [z_value if v == HEIGHT else (z_value > 0).astype(np.float32) for v in planes.values],
             axis=1,
         ).reshape(1, H + 1, planes.n)
-        self._scale = (1.0 / max(X - 1, 1), 1.0 / max(Y - 1, 1), 1.0 / H)
+        # Per padded linear cell index: (x, y, z) divided by the site size (the table's nodes).
+        scale = (1.0 / max(X - 1, 1), 1.0 / max(Y - 1, 1), 1.0 / H)
+        self._scaled = [
+            tuple(v * f for v, f in zip(sim.cell(j), scale, strict=True))
+            for j in range(int(np.prod(sim.shape)))
+        ]
         self._target_footprint = [self._footprint(cells) for cells in sim.target_cells]
         # Per component: (ready targets, obs indices, values) of its MY_TARGETS plane.
         self._my_targets: dict[int, tuple[list[int], np.ndarray, np.ndarray]] = {}
@@ -237,14 +242,17 @@ class Observer:
         old_cells, old_bits = self._painted[c]
         cells = sim.cells[c]
         bits = self._component_bits(c, ready)
-        self._paint(old_cells, old_bits, 0)
-        self._paint([], 0, bits, cells)
+        byte, bm, xy, dirty = self._byte, self._bits, self._xy, self._dirty_columns
+        keep = ~old_bits & 0xFF
+        for j in old_cells:  # every component cell lies inside the site
+            bm[byte[j]] &= keep
+            dirty.add(xy[j])
+        for j in cells:
+            bm[byte[j]] |= bits
+            dirty.add(xy[j])
         self._painted[c] = (cells, bits)
         # The component table row (the "held by this crane" column is per crane).
         status = sim._status[c]
-        x1, y1, z1 = sim.cell(cells[0])
-        x2, y2, z2 = sim.cell(cells[-1])
-        sx, sy, sz = self._scale
         self.table[c] = (
             status == _INITIAL,
             status == _IN_TRANSIT,
@@ -254,12 +262,8 @@ class Observer:
             sim.holder[c] != NOBODY,
             0.0,
             sim.kind[c] == _BEAM,
-            x1 * sx,
-            y1 * sy,
-            z1 * sz,
-            x2 * sx,
-            y2 * sy,
-            z2 * sz,
+            *self._scaled[cells[0]],
+            *self._scaled[cells[-1]],
         )
 
     def update(self, ready: list[int], full: bool = False) -> None:
