@@ -42,10 +42,6 @@ def pose_cells(a: tuple[int, ...], b: tuple[int, ...]) -> list[Cell]:
     return [(a[0] + i * step[0], a[1] + i * step[1], a[2] + i * step[2]) for i in range(n)]
 
 
-def cell_set(pose: Pose) -> frozenset[Cell]:
-    return frozenset(pose_cells(*pose))
-
-
 def touches(cells_a: list[Cell], cells_b: list[Cell]) -> bool:
     """True when some cell of ``a`` shares a face with some cell of ``b``."""
     b = set(cells_b)

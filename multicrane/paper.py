@@ -177,9 +177,3 @@ class PaperAssemblyEnv(gym.Env):
 
     def render(self) -> str | None:
         return render_ansi(self.sim) if self.render_mode == "ansi" else None
-
-
-def make_paper_env(config: str, **kwargs) -> PaperAssemblyEnv:
-    """``PaperAssemblyEnv(config)``; the same as ``gymnasium.make(paper_env_id(config))``
-    without Gymnasium's checker wrappers."""
-    return PaperAssemblyEnv(config, **kwargs)

@@ -107,12 +107,6 @@ def next_move(sim: Simulator, comp: int, dist: np.ndarray) -> int | None:
     return None
 
 
-def path_length(sim: Simulator, comp: int, targets: list[int]) -> int:
-    """Moves on a shortest path from where the component is to the nearest target."""
-    dist = distance_field(sim, comp, targets)
-    return int(dist[current_cells(sim, comp)[0]])
-
-
 def field_from(sim: Simulator, comp: int, stops: list[int]) -> np.ndarray:
     """Moves from where the component is (its pick-up pose if initial) to every position.
 
