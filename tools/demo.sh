@@ -1,9 +1,7 @@
 #!/usr/bin/env bash
-# The main job: sets up .venv, then runs policies on a scenario and prints the results.
-# Arguments go to tools/run_policy.py (default: prioritized, greedy and random cranes on frame2-3c).
-MULTICRANE_EXTRAS="test"
+# The main job: sets up .venv (with the training and replay stacks), then trains parameter-
+# sharing PPO for the cranes of a scenario, evaluates it against the prioritized planner,
+# greedy and random cranes, and saves a replay. Arguments go to tools/demo.py.
+MULTICRANE_EXTRAS="train,replay"
 source "$(dirname "$0")/_venv.sh"
-if [ "$#" -eq 0 ]; then
-  set -- --scenario frame2-3c --cranes 3 --policy prioritized greedy random --episodes 5
-fi
-"$PY" tools/run_policy.py "$@"
+"$PY" tools/demo.py "$@"

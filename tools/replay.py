@@ -38,10 +38,20 @@ POLICIES = {
 PLAY_STATES = ["paused", "playing", "following"]
 
 
+def make_policy(spec: str, env, seed: int):
+    """A named policy, or a trained model's run directory (``tools/train.py --out``)."""
+    if spec in POLICIES:
+        return POLICIES[spec](env, seed)
+    from policies.registry import policy_factory
+
+    return policy_factory(spec, paper=False)[1](env, seed)
+
+
 def _episode_args(p: argparse.ArgumentParser, policy: str = "prioritized") -> None:
     p.add_argument("--scenario", default="hall-4c", help="shipped name or path to a .toml file")
     p.add_argument("--cranes", type=int, default=None, help="default: the scenario's")
-    p.add_argument("--policy", default=policy, choices=sorted(POLICIES))
+    p.add_argument("--policy", default=policy,
+                   help=f"{', '.join(sorted(POLICIES))}, or a training run directory")  # fmt: skip
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--auto", action="store_true", help="automatic mode (random/greedy only)")
     p.add_argument("--max-steps", type=int, default=None, help="default: the scenario's limit")
@@ -116,7 +126,7 @@ def cmd_live(args: argparse.Namespace) -> int:
         args.spawn = True
     env = _make_env(args)
     rec = _stream(args, f"{env.scenario.name} live", env.scenario)
-    record = replay.run_live(env, POLICIES[args.policy](env, args.seed), args.seed, rec,
+    record = replay.run_live(env, make_policy(args.policy, env, args.seed), args.seed, rec,
                              policy_name=args.policy)  # fmt: skip
     rec.flush()
     print(_summary(record))
@@ -133,7 +143,7 @@ def cmd_record(args: argparse.Namespace) -> int:
         print("error: give --rrd and/or --record", file=sys.stderr)
         return 2
     env = _make_env(args)
-    policy = POLICIES[args.policy](env, args.seed)
+    policy = make_policy(args.policy, env, args.seed)
     if args.rrd:
         record = replay.record_and_save(env, policy, args.seed, args.rrd, args.policy,
                                         play_state=args.play_state)  # fmt: skip
@@ -187,12 +197,12 @@ def bench(
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(repeats):
             t0 = time.perf_counter()
-            rec = record_episode(env, POLICIES[policy](env, seed + i), seed + i, policy)
+            rec = record_episode(env, make_policy(policy, env, seed + i), seed + i, policy)
             plain.append(time.perf_counter() - t0)
             n_steps = rec.steps
             t0 = time.perf_counter()
             rec2 = replay.record_and_save(
-                env, POLICIES[policy](env, seed + i), seed + i, Path(tmp) / "e.rrd", policy
+                env, make_policy(policy, env, seed + i), seed + i, Path(tmp) / "e.rrd", policy
             )
             rec2.save(Path(tmp) / "e.json.gz")
             recorded.append(time.perf_counter() - t0)
@@ -227,7 +237,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return {"live": cmd_live, "record": cmd_record, "replay": cmd_replay,
                 "bench": cmd_bench}[args.command](args)  # fmt: skip
-    except (multicrane.ScenarioError, RecordError) as exc:
+    except (multicrane.ScenarioError, RecordError, ValueError) as exc:  # PolicyError too
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except ImportError as exc:

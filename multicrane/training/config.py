@@ -1,0 +1,151 @@
+"""What one training run is: ``TrainConfig``, stored as ``config.json`` in its directory."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from multicrane.paper import PAPER_CONFIGS
+
+DEFAULT_SHAPING = 1.0  # multi-agent mode; see multicrane.training.shaping
+
+
+class ConfigError(ValueError):
+    """A training configuration that cannot be used; the message names the key and value."""
+
+
+@dataclass
+class TrainConfig:
+    """One training run.
+
+    ``scenario``: a paper configuration (``"E2S2"``) when ``paper`` is True, else a shipped
+    scenario name or a path to a scenario file. ``algo``: ``dqn``, ``double_dqn``, ``a2c``,
+    ``ppo`` or ``maskable_ppo`` (paper mode), ``ppo`` or ``maskable_ppo`` (multi-agent mode).
+    ``total_steps``: the budget in SB3 timesteps, i.e. environment steps in paper mode and
+    crane decisions (joint steps x cranes) in multi-agent mode; runs stop at the first
+    update boundary at or past it. ``n_envs``: environment copies (default: the
+    algorithm's). ``hyperparams``: overrides of the algorithm's defaults
+    (``multicrane.training.algorithms``). ``eval_every``: steps between evaluations for the
+    learning curve (0: only the final one); ``eval_episodes``: episodes per evaluation, on
+    the fixed seeds of ``seeding.evaluation_seeds``; ``final_episodes``: episodes of the final
+    evaluation (default: ``eval_episodes``). ``checkpoint_every``: steps between
+    checkpoints (0: only on interruption). ``mask_blocked_moves``: paper mode's mask
+    (default: on for ``maskable_ppo`` only). ``auto``/``max_steps``: multi-agent environment
+    options. ``shaping``: weight of the potential-based shaping term of the multi-agent mode
+    (``multicrane.training.shaping``; default ``DEFAULT_SHAPING``; 0 turns it off).
+    ``torch_threads``: 1 unless you have cores to spare.
+    """
+
+    scenario: str = "E2S2"
+    paper: bool = True
+    algo: str = "ppo"
+    total_steps: int = 100_000
+    seed: int = 0
+    n_cranes: int | None = None
+    n_envs: int | None = None
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    eval_every: int = 0
+    eval_episodes: int = 20
+    final_episodes: int | None = None
+    checkpoint_every: int = 50_000
+    mask_blocked_moves: bool | None = None
+    auto: bool = False
+    max_steps: int | None = None
+    shaping: float | None = None
+    torch_threads: int = 1
+
+    def __post_init__(self) -> None:
+        if self.paper:
+            if str(self.scenario).upper() not in PAPER_CONFIGS:
+                raise ConfigError(
+                    f"scenario={self.scenario!r}: paper mode needs one of "
+                    f"{', '.join(PAPER_CONFIGS)}"
+                )
+            self.scenario = str(self.scenario).upper()
+            if self.n_cranes not in (None, 1):
+                raise ConfigError(f"n_cranes={self.n_cranes!r}: paper mode has one crane")
+        for name in ("total_steps", "eval_episodes", "torch_threads"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ConfigError(f"{name}={value!r}: must be a positive integer")
+        for name in ("seed", "eval_every", "checkpoint_every"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+                raise ConfigError(f"{name}={value!r}: must be a non-negative integer")
+        for name in ("n_cranes", "n_envs", "max_steps", "final_episodes"):
+            value = getattr(self, name)
+            if value is not None and (not isinstance(value, int) or value < 1):
+                raise ConfigError(f"{name}={value!r}: must be a positive integer or None")
+        if self.shaping is not None:
+            if self.paper and self.shaping:
+                raise ConfigError(f"shaping={self.shaping!r}: paper mode uses the paper's reward")
+            if not isinstance(self.shaping, (int, float)) or self.shaping < 0:
+                raise ConfigError(f"shaping={self.shaping!r}: must be a number >= 0")
+        if not isinstance(self.hyperparams, dict):
+            raise ConfigError(f"hyperparams={self.hyperparams!r}: must be a mapping")
+        from multicrane.training.algorithms import algorithm, hyperparameters
+
+        try:
+            algo = algorithm(self.algo, self.paper)
+        except ValueError as exc:
+            raise ConfigError(f"algo={self.algo!r}: {exc}") from None
+        try:
+            hyperparameters(algo, None, self.hyperparams)
+        except ValueError as exc:
+            raise ConfigError(f"hyperparams: {exc}") from None
+
+    @property
+    def final_eval_episodes(self) -> int:
+        return self.final_episodes or self.eval_episodes
+
+    @property
+    def shaping_weight(self) -> float:
+        if self.paper:
+            return 0.0
+        return DEFAULT_SHAPING if self.shaping is None else float(self.shaping)
+
+    @property
+    def name(self) -> str:
+        """A directory name for the run: ``E2S2-ppo-s0`` or ``hall-4c-2c-maskable_ppo-s3``."""
+        scen = Path(str(self.scenario)).stem
+        cranes = f"-{self.n_cranes}c" if self.n_cranes and not self.paper else ""
+        return f"{scen}{cranes}-{self.algo}-s{self.seed}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "config") -> TrainConfig:
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise ConfigError(f"{source}: unknown key(s) {', '.join(unknown)}")
+        return cls(**data)
+
+    def save(self, path: Path) -> None:
+        write_atomic(path, json.dumps(self.to_dict(), indent=2, sort_keys=True) + "\n")
+
+    @classmethod
+    def load(cls, path: Path) -> TrainConfig:
+        try:
+            data = json.loads(Path(path).read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ConfigError(f"{path}: cannot read the run configuration ({exc})") from None
+        if not isinstance(data, dict):
+            raise ConfigError(f"{path}: expected a JSON object")
+        return cls.from_dict(data, source=str(path))
+
+    def differences(self, other: TrainConfig) -> list[str]:
+        """``key: mine != other`` for each differing field."""
+        a, b = self.to_dict(), other.to_dict()
+        return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write through a temporary file and a rename, so a reader never sees half a file."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)

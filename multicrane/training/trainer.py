@@ -1,0 +1,426 @@
+"""Train one run: build the environments and model, checkpoint, resume, evaluate.
+
+A run lives in a directory: ``config.json``; ``checkpoint/`` (model, environment copies,
+random-generator states, and the replay buffer for DQN), written atomically at update
+boundaries every ``checkpoint_every`` steps and when interrupted (SIGINT/SIGTERM, or
+``stop_at``); ``tb/`` (TensorBoard); and, once finished, ``model.zip`` and ``result.json``.
+
+Resuming loads the checkpoint and continues exactly where it stopped: the environment copies,
+the last observations and every random generator come back, so a run interrupted and
+resumed learns the same parameters as an uninterrupted one (tested), and no step is lost or
+repeated. A checkpoint is only taken between updates (PPO/A2C: before a rollout; DQN: before
+an environment step), where the state is whole.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import pickle
+import platform
+import random
+import shutil
+import signal
+import time
+from contextlib import contextmanager
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch as th
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.monitor import Monitor
+
+from multicrane.training.algorithms import Algorithm, algorithm, hyperparameters, make_model
+from multicrane.training.config import ConfigError, TrainConfig, write_atomic
+from multicrane.training.seeding import evaluation_seeds
+from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
+
+CHECKPOINT = "checkpoint"
+RESULT = "result.json"
+PACKAGES = (
+    "multicrane",
+    "numpy",
+    "gymnasium",
+    "pettingzoo",
+    "torch",
+    "stable-baselines3",
+    "sb3-contrib",
+    "supersuit",
+)
+
+
+# -- environments ------------------------------------------------------------------------------
+
+
+def paper_env(cfg: TrainConfig, algo: Algorithm):
+    from multicrane.paper import PaperAssemblyEnv
+
+    mask = algo.masked if cfg.mask_blocked_moves is None else cfg.mask_blocked_moves
+    return PaperAssemblyEnv(cfg.scenario, mask_blocked_moves=mask)
+
+
+def multi_env(cfg: TrainConfig):
+    from multicrane.env import MultiCraneEnv
+
+    return MultiCraneEnv(
+        cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto, max_steps=cfg.max_steps
+    )
+
+
+def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
+    n = cfg.n_envs or algo.n_envs
+    if cfg.paper:
+        return SeededDummyVecEnv([lambda: Monitor(paper_env(cfg, algo))] * n)
+    gamma = float(params.get("gamma", 0.99))
+    return CraneVecEnv(lambda: multi_env(cfg), n, shaping=cfg.shaping_weight, gamma=gamma)
+
+
+# -- evaluation --------------------------------------------------------------------------------
+
+
+def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, optimal: bool):
+    """Greedy episodes of the model on the evaluation seeds: (episodes, summary)."""
+    from policies.evaluation import evaluate_multi, evaluate_paper
+    from policies.learned import PaperModelPolicy, SharedModelPolicy
+
+    seeds = evaluation_seeds(episodes)
+    if cfg.paper:
+        env = paper_env(cfg, algo)
+        return evaluate_paper(env, lambda e, s: PaperModelPolicy(model, e), seeds, optimal)
+    env = multi_env(cfg)
+    return evaluate_multi(env, lambda e, s: SharedModelPolicy(model, e), seeds)
+
+
+# -- checkpoints -------------------------------------------------------------------------------
+
+
+def _rng_states(model) -> dict[str, Any]:
+    return {
+        "torch": th.get_rng_state(),
+        "numpy": np.random.get_state(),  # noqa: NPY002 (SB3 draws from the global generator)
+        "random": random.getstate(),
+        "action_space": model.action_space.np_random.bit_generator.state,
+    }
+
+
+def _set_rng_states(model, states: dict[str, Any]) -> None:
+    th.set_rng_state(states["torch"])
+    np.random.set_state(states["numpy"])  # noqa: NPY002
+    random.setstate(states["random"])
+    model.action_space.np_random.bit_generator.state = states["action_space"]
+
+
+def save_checkpoint(run_dir: Path, model, venv, progress: dict[str, Any]) -> None:
+    """Write ``checkpoint/`` atomically (into a new directory, then swap)."""
+    final = run_dir / CHECKPOINT
+    tmp = run_dir / (CHECKPOINT + ".tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir()
+    model.save(tmp / "model.zip")
+    if getattr(model, "replay_buffer", None) is not None:
+        with gzip.open(tmp / "replay_buffer.pkl.gz", "wb", compresslevel=1) as f:
+            pickle.dump(model.replay_buffer, f, protocol=pickle.HIGHEST_PROTOCOL)
+    state = {"venv": venv.get_state(), "rng": _rng_states(model), "progress": progress}
+    (tmp / "state.pkl").write_bytes(pickle.dumps(state))
+    (tmp / "steps.txt").write_text(f"{model.num_timesteps}\n")  # marks it complete
+    old = run_dir / (CHECKPOINT + ".old")
+    shutil.rmtree(old, ignore_errors=True)
+    if final.exists():
+        final.rename(old)
+    tmp.rename(final)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def checkpoint_complete(run_dir: Path) -> bool:
+    return (run_dir / CHECKPOINT / "steps.txt").is_file()
+
+
+def load_checkpoint(run_dir: Path, algo: Algorithm, venv):
+    """The model and progress saved in ``checkpoint/``, with environments and generators
+    restored to that moment."""
+    ckpt = run_dir / CHECKPOINT
+    # force_reset=False keeps the saved last observations: the copies continue, not restart.
+    model = algo.cls.load(ckpt / "model.zip", env=venv, device="cpu", force_reset=False)
+    state = pickle.loads((ckpt / "state.pkl").read_bytes())
+    venv.set_state(state["venv"])
+    buffer = ckpt / "replay_buffer.pkl.gz"
+    if buffer.exists():
+        with gzip.open(buffer, "rb") as f:
+            model.replay_buffer = pickle.load(f)
+    _set_rng_states(model, state["rng"])
+    return model, state["progress"]
+
+
+# -- the run -----------------------------------------------------------------------------------
+
+
+class _Interrupt:
+    """The first SIGINT/SIGTERM asks the run to stop at the next update boundary (with a
+    checkpoint); a second SIGINT stops at once."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    def __call__(self, signum, frame) -> None:
+        if self.requested and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    @contextmanager
+    def installed(self):
+        previous = {}
+        try:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                previous[sig] = signal.signal(sig, self)
+        except ValueError:  # not the main thread: no signal handling
+            pass
+        try:
+            yield self
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+class _RunMonitor(BaseCallback):
+    """Evaluations for the learning curve, checkpoints, interruption and the progress bar;
+    all at update boundaries (``_on_rollout_start``)."""
+
+    def __init__(self, run, stop_at: int | None, interrupt: _Interrupt, progress_bar: bool):
+        super().__init__()
+        self.run = run
+        self.stop_at = stop_at
+        self.interrupt = interrupt
+        self.progress_bar = progress_bar
+        self.stopping = False
+        self.stopped_at: int | None = None
+        self.bar = None
+
+    def _on_training_start(self) -> None:
+        if self.progress_bar:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=self.run.cfg.total_steps,
+                initial=self.model.num_timesteps,
+                unit="step",
+                desc=self.run.cfg.name,
+                dynamic_ncols=True,
+            )
+
+    def _on_rollout_start(self) -> None:
+        run, steps = self.run, self.model.num_timesteps
+        if self.stopping:
+            return
+        if run.cfg.eval_every and steps >= run.progress["next_eval"]:
+            run.evaluate_point()
+            run.progress["next_eval"] = steps + run.cfg.eval_every
+        due = run.cfg.checkpoint_every and steps >= run.progress["next_checkpoint"]
+        stop = self.interrupt.requested or (self.stop_at is not None and steps >= self.stop_at)
+        if stop or (due and steps < run.cfg.total_steps):
+            if due:
+                run.progress["next_checkpoint"] = steps + run.cfg.checkpoint_every
+            run.checkpoint()
+        if stop:
+            self.stopping, self.stopped_at = True, steps
+
+    def _on_step(self) -> bool:
+        if self.bar is not None:
+            self.bar.update(self.model.num_timesteps - self.bar.n)
+        return not self.stopping
+
+    def _on_training_end(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+class Run:
+    """One training run in its directory; see the module doc."""
+
+    def __init__(self, cfg: TrainConfig, run_dir: Path, log=print):
+        self.cfg = cfg
+        self.dir = Path(run_dir)
+        self.log = log
+        self.algo = algorithm(cfg.algo, cfg.paper)
+        self.params = hyperparameters(
+            self.algo, cfg.scenario if cfg.paper else None, cfg.hyperparams
+        )
+        self.progress: dict[str, Any] = {}
+        self.model = None
+        self.venv = None
+        self._session_start = 0.0
+
+    # -- bookkeeping -----------------------------------------------------------------------
+
+    def _claim_directory(self) -> dict | None:
+        """Create the directory or check it belongs to this configuration; the finished
+        result when there is one."""
+        self.dir.mkdir(parents=True, exist_ok=True)
+        path = self.dir / "config.json"
+        if path.exists():
+            stored = TrainConfig.load(path)
+            diff = stored.differences(self.cfg)
+            if diff:
+                raise ConfigError(
+                    f"{self.dir} holds a run with another configuration ({'; '.join(diff)}): "
+                    "use another directory, or delete it to start over"
+                )
+        else:
+            self.cfg.save(path)
+        result = self.dir / RESULT
+        if result.exists():
+            try:
+                return json.loads(result.read_text())
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+                aside = result.with_name(f"{RESULT}.unreadable")
+                result.replace(aside)
+                self.log(f"{result}: unreadable ({exc}); moved to {aside.name}, run again")
+        return None
+
+    def elapsed(self) -> float:
+        return self.progress["seconds"] + time.perf_counter() - self._session_start
+
+    def checkpoint(self) -> None:
+        self.progress["seconds"] = self.elapsed()
+        self._session_start = time.perf_counter()
+        save_checkpoint(self.dir, self.model, self.venv, self.progress)
+
+    def evaluate_point(self) -> None:
+        _, summary = evaluate_model(
+            self.model, self.cfg, self.algo, self.cfg.eval_episodes, optimal=False
+        )
+        point = {
+            "step": int(self.model.num_timesteps),
+            "return_mean": summary["return_mean"],
+            "return_sem": summary["return_sem"],
+            "success_rate": summary["success_rate"],
+            "steps_mean": summary["steps_mean"],
+            "train_return_mean": _train_return(self.model),
+            "seconds": round(self.elapsed(), 3),
+        }
+        self.progress["curve"].append(point)
+        self.model.logger.record("eval/return_mean", point["return_mean"])
+        self.model.logger.record("eval/success_rate", point["success_rate"])
+
+    # -- training --------------------------------------------------------------------------
+
+    def execute(self, progress_bar: bool = False, stop_at: int | None = None) -> dict | None:
+        """Train (or resume) to the budget; the result, or None when stopped early."""
+        done = self._claim_directory()
+        if done is not None:
+            return done
+        th.set_num_threads(self.cfg.torch_threads)
+        self.venv = make_vec_env(self.cfg, self.algo, self.params)
+        fresh = not checkpoint_complete(self.dir)
+        if fresh:
+            self.model = make_model(
+                self.algo, self.venv, self.cfg.seed, self.params, str(self.dir / "tb")
+            )
+            self.progress = {
+                "next_eval": 0,
+                "next_checkpoint": self.cfg.checkpoint_every,
+                "curve": [],
+                "seconds": 0.0,
+                "sessions": 1,
+            }
+        else:
+            self.model, self.progress = load_checkpoint(self.dir, self.algo, self.venv)
+            self.progress["sessions"] += 1
+            self.log(f"{self.cfg.name}: resuming at step {self.model.num_timesteps}")
+        self._session_start = time.perf_counter()
+        interrupt = _Interrupt()
+        monitor = _RunMonitor(self, stop_at, interrupt, progress_bar)
+        remaining = self.cfg.total_steps - self.model.num_timesteps
+        with interrupt.installed():
+            if remaining > 0:
+                self.model.learn(
+                    remaining,
+                    callback=monitor,
+                    reset_num_timesteps=fresh,
+                    tb_log_name=self.cfg.algo,
+                )
+        if monitor.stopping:
+            self.log(f"{self.cfg.name}: stopped at step {monitor.stopped_at}; resume later")
+            return None
+        return self._finish()
+
+    def _finish(self) -> dict:
+        train_seconds = self.elapsed()
+        if self.cfg.eval_every and (
+            not self.progress["curve"]
+            or self.progress["curve"][-1]["step"] != self.model.num_timesteps
+        ):
+            self.evaluate_point()
+        self.model.save(self.dir / "model.zip")
+        start = time.perf_counter()
+        episodes, summary = evaluate_model(
+            self.model, self.cfg, self.algo, self.cfg.final_eval_episodes, optimal=self.cfg.paper
+        )
+        result = {
+            "config": self.cfg.to_dict(),
+            "algorithm": self.algo.label,
+            "hyperparameters": _jsonable(self.params),
+            "steps": int(self.model.num_timesteps),
+            "final": summary,
+            "final_episodes": episodes,
+            "final_metric": (
+                f"mean return of the trained policy (greedy actions) over "
+                f"{self.cfg.final_eval_episodes} evaluation episodes, reset seeds 1000000.."
+            ),
+            "train_return_mean": _train_return(self.model),
+            "curve": self.progress["curve"],
+            "train_seconds": round(train_seconds, 3),
+            "eval_seconds": round(time.perf_counter() - start, 3),
+            "steps_per_second": round(self.model.num_timesteps / max(train_seconds, 1e-9), 1),
+            "sessions": self.progress["sessions"],
+            "versions": versions(),
+            "python": platform.python_version(),
+        }
+        write_atomic(self.dir / RESULT, json.dumps(result, indent=1) + "\n")
+        shutil.rmtree(self.dir / CHECKPOINT, ignore_errors=True)
+        self.venv.close()
+        return result
+
+
+def train(
+    cfg: TrainConfig,
+    run_dir: str | Path,
+    *,
+    progress_bar: bool = False,
+    stop_at: int | None = None,
+    log=print,
+) -> dict | None:
+    """Train ``cfg`` in ``run_dir`` (resuming what is there); the result dict (also in
+    ``result.json``), or None when interrupted or stopped at ``stop_at`` steps."""
+    return Run(cfg, Path(run_dir), log=log).execute(progress_bar=progress_bar, stop_at=stop_at)
+
+
+def load_run_model(run_dir: Path, which: str = "final"):
+    """(model, config) of a run directory; ``which`` is ``"final"`` or ``"checkpoint"``."""
+    run_dir = Path(run_dir)
+    cfg = TrainConfig.load(run_dir / "config.json")
+    algo = algorithm(cfg.algo, cfg.paper)
+    path = run_dir / ("model.zip" if which == "final" else f"{CHECKPOINT}/model.zip")
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no {which} model in this run directory")
+    return algo.cls.load(path, device="cpu"), cfg
+
+
+def _train_return(model) -> float | None:
+    buf = model.ep_info_buffer
+    return float(np.mean([e["r"] for e in buf])) if buf else None
+
+
+def _jsonable(params: dict) -> dict:
+    return json.loads(json.dumps(params, default=lambda o: getattr(o, "__name__", repr(o))))
+
+
+def versions() -> dict[str, str]:
+    out = {}
+    for name in PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out

@@ -1,0 +1,115 @@
+"""Evaluating policies: ``policies.evaluation`` on hand-made episodes, policies by name
+(``policies.registry``), ``tools/evaluate.py`` and the main job ``tools/demo.py``."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+import multicrane
+from policies.evaluation import evaluate_paper, summarise
+from policies.registry import PolicyError, policy_factory
+
+pytest.importorskip("stable_baselines3")
+
+from multicrane.training import TrainConfig, train  # noqa: E402
+from tools import demo, evaluate  # noqa: E402
+
+
+def test_summary_of_hand_made_episodes():
+    episodes = [
+        {"return": -2.0, "success": True, "steps": 20},
+        {"return": -4.0, "success": True, "steps": 30},
+        {"return": -9.0, "success": False, "steps": 100},
+    ]
+    s = summarise(episodes, optimal=[-1.0, -2.0, -3.0])
+    assert s["return_mean"] == pytest.approx(-5.0)
+    assert s["return_sem"] == pytest.approx(math.sqrt(13.0) / math.sqrt(3.0))
+    assert s["success_rate"] == pytest.approx(2 / 3)
+    assert s["steps_mean"] == pytest.approx(50.0)
+    assert s["finish_steps_mean"] == pytest.approx(25.0)
+    assert s["optimal_mean"] == pytest.approx(-2.0)
+    assert s["gap"] == pytest.approx(3.0)
+    assert s["gap_pct"] == pytest.approx(150.0)
+    one = summarise(episodes[2:])
+    assert one["return_sem"] == 0.0 and one["finish_steps_mean"] is None
+    with pytest.raises(ValueError):
+        summarise([])
+
+
+@pytest.mark.parametrize("config", ["E1S1", "E2S3", "E3S2"])
+def test_optimal_has_no_gap_and_random_a_large_one(config):
+    env = multicrane.PaperAssemblyEnv(config)
+    seeds = [0, 1, 2]
+    _, best = evaluate_paper(env, policy_factory("optimal", paper=True)[1], seeds)
+    assert best["gap"] == pytest.approx(0.0, abs=1e-9)
+    assert best["success_rate"] == 1.0
+    _, rnd = evaluate_paper(env, policy_factory("random", paper=True)[1], seeds)
+    assert rnd["gap"] > 50 and rnd["success_rate"] == 0.0
+
+
+def test_policy_names_are_checked():
+    with pytest.raises(PolicyError, match="prioritized"):
+        policy_factory("prioritized", paper=True)  # a multi-agent planner
+    with pytest.raises(PolicyError, match="optimal"):
+        policy_factory("optimal", paper=False)
+    with pytest.raises(PolicyError, match="no such run directory"):
+        policy_factory("no/such/run", paper=False)
+
+
+@pytest.fixture(scope="module")
+def paper_run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("runs") / "e1s1-ppo"
+    cfg = TrainConfig(
+        "E1S1", paper=True, algo="ppo", total_steps=256, n_envs=2, eval_episodes=2,
+        hyperparams={"n_steps": 64, "batch_size": 64},
+    )  # fmt: skip
+    train(cfg, run_dir, log=lambda *_: None)
+    return run_dir
+
+
+def test_evaluate_program_compares_a_trained_model_with_planners(paper_run, tmp_path, capsys):
+    out = tmp_path / "eval.json"
+    code = evaluate.main(
+        ["--paper", "E1S1", "--policy", str(paper_run), "optimal", "greedy", "--episodes", "3",
+         "--json", str(out)]
+    )  # fmt: skip
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "ppo (e1s1-ppo)" in text and "optimal" in text and "gap" in text
+    rows = json.loads(out.read_text())
+    assert [r["policy"] for r in rows] == ["ppo (e1s1-ppo)", "optimal", "greedy"]
+    seeds = [[e["seed"] for e in r["episodes"]] for r in rows]
+    assert seeds[0] == seeds[1] == seeds[2] == [1_000_000, 1_000_001, 1_000_002]
+    by = {r["policy"]: r["summary"] for r in rows}
+    assert by["optimal"]["gap"] == pytest.approx(0.0, abs=1e-9)
+    assert by["ppo (e1s1-ppo)"]["return_mean"] <= by["optimal"]["return_mean"] + 1e-9
+
+
+def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
+    code = evaluate.main(["--scenario", "e1s1", "--cranes", "2", "--policy", str(paper_run)])
+    assert code == 2
+    assert "single-agent benchmark mode" in capsys.readouterr().err
+
+
+def test_demo_trains_evaluates_and_records(tmp_path, capsys):
+    pytest.importorskip("rerun")
+    code = demo.main(
+        ["--scenario", "e1s1", "--cranes", "2", "--steps", "512", "--episodes", "2",
+         "--out", str(tmp_path)]
+    )  # fmt: skip
+    assert code == 0
+    out = capsys.readouterr().out
+    run_dir = tmp_path / "e1s1-2c-maskable_ppo-s0"
+    for name in ("model.zip", "result.json", "evaluation.json", "replay.rrd", "episode.json.gz"):
+        assert (run_dir / name).is_file(), name
+    policies = [r["policy"] for r in json.loads((run_dir / "evaluation.json").read_text())]
+    assert policies[1:] == ["prioritized", "greedy", "random"]
+    assert "replay:" in out
+    # Again: the finished training is reused, not repeated.
+    mtime = (run_dir / "model.zip").stat().st_mtime_ns
+    assert demo.main(["--scenario", "e1s1", "--cranes", "2", "--steps", "512",
+                      "--episodes", "2", "--out", str(tmp_path)]) == 0  # fmt: skip
+    assert (run_dir / "model.zip").stat().st_mtime_ns == mtime
