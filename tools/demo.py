@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))
 
 from tools import evaluate, replay, train  # noqa: E402
 
-DEFAULTS = {"scenario": "e2s2", "cranes": 2, "steps": 300_000, "algo": "maskable_ppo"}
+DEFAULTS = {"scenario": "e2s2", "cranes": 2, "steps": 1_000_000, "algo": "maskable_ppo"}
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

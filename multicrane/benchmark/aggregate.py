@@ -3,11 +3,12 @@
 The metric (the same as the paper's protocol, ``paper-benchmark.md`` section 8): for each
 seed, the *final return* is ``result["final"]["return_mean"]``, the mean return of the
 trained policy acting greedily (deterministic actions) over the final evaluation's
-``eval_episodes`` episodes, on the reset seeds 1000000, 1000001, ... (the same episodes for
-every algorithm and seed). A cell (configuration, algorithm) reports the mean of the final
-returns over its seeds +- their standard error (sample standard deviation with n - 1,
-divided by sqrt(n)). With a single seed there is no spread to estimate: the standard error
-is None, shown "n/a" (not 0, which would claim a certainty one seed cannot give).
+``final_episodes`` episodes (``eval_episodes`` when unset), on the reset seeds 1000000,
+1000001, ... (the same episodes for every algorithm and seed). A cell (configuration,
+algorithm) reports the mean of the final returns over its seeds +- their standard error
+(sample standard deviation with n - 1, divided by sqrt(n)). With a single seed there is no
+spread to estimate: the standard error is None, shown "n/a" (not 0, which would claim a
+certainty one seed cannot give).
 
 Beside it: the success rate (mean over seeds of the final evaluation's success rate), the
 exact planner's return on the same evaluation episodes (``final.optimal_mean``), the gap
@@ -314,13 +315,14 @@ def markdown(
     total = len(sweep.configs) * len(sweep.algos) * len(sweep.seeds)
     finished = sum(c.n for c in cells)
     seeds = len(sweep.seeds)
+    final_n = sweep.final_episodes or sweep.eval_episodes
     out = [
         f"{heading} Benchmark results: `{sweep.name}` sweep",
         "",
         f"Final return, mean ± standard error over {seeds} seed{'s' if seeds != 1 else ''}: "
         'for each seed, `result["final"]["return_mean"]`, the mean return of the trained '
         "policy acting greedily (deterministic actions) over the final evaluation's "
-        f"{sweep.eval_episodes} episodes (reset seeds 1000000 .. {999_999 + sweep.eval_episodes}, "
+        f"{final_n} episodes (reset seeds 1000000 .. {999_999 + final_n}, "
         "the same episodes for every algorithm and seed); then the mean of those over seeds "
         "± their standard error (sample standard deviation with n − 1, divided by √n; "
         '"n/a" with a single seed). **Bold**: the best of ours in the row. *optimal*: the '
