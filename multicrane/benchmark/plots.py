@@ -11,6 +11,7 @@ display and no global pyplot state are involved.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -107,7 +108,8 @@ def environment_figure(sweep: Sweep, results: Results, env: str, path: Path, tit
             ncols=min(len(order), 3 * cols),
             fontsize="small",
         )
-    fig.suptitle(title)
+    # Wrap long titles (custom sweeps have long names) to the figure's width.
+    fig.suptitle(textwrap.fill(title, width=48 * cols), fontsize="medium")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
