@@ -1,6 +1,6 @@
 """The main job: train parameter-sharing PPO for cranes, compare it, and save a replay.
 
-    python tools/demo.py                                  # the defaults below, a few minutes
+    python tools/demo.py                                  # the defaults below, ~10 minutes
     python tools/demo.py --scenario e1s1 --cranes 2 --steps 400000
 
 1. ``tools/train.py``: MaskablePPO with one policy shared by every crane, on a multi-crane

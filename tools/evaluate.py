@@ -73,7 +73,7 @@ def evaluate_all(args: argparse.Namespace) -> list[dict]:
 
 
 def format_table(rows: list[dict], paper: bool) -> str:
-    head = f"{'policy':<34} {'return':>18} {'success':>8} {'finish':>7} {'steps':>7}"
+    head = f"{'policy':<44} {'return':>18} {'success':>8} {'finish':>7} {'steps':>7}"
     if paper:
         head += f" {'gap':>8} {'gap %':>7}"
     lines = [head]
@@ -81,7 +81,7 @@ def format_table(rows: list[dict], paper: bool) -> str:
         s = row["summary"]
         finish = "-" if s["finish_steps_mean"] is None else f"{s['finish_steps_mean']:.1f}"
         line = (
-            f"{row['policy'][:34]:<34} {s['return_mean']:>10.2f} ± {s['return_sem']:<6.2f}"
+            f"{row['policy'][:44]:<44} {s['return_mean']:>10.2f} ± {s['return_sem']:<6.2f}"
             f"{s['success_rate']:>8.0%} {finish:>7} {s['steps_mean']:>7.1f}"
         )
         if paper:
