@@ -36,6 +36,7 @@ from typing import Any
 
 from multicrane.simulator import NOBODY
 from multicrane.types import EventType
+from policies.evaluation import sem
 
 _FAILED = (EventType.ILLEGAL, EventType.CLAIM_CONFLICT, EventType.LIFT_BLOCKED)
 
@@ -93,10 +94,6 @@ def run_with_metrics(env, policy: Callable[[dict], dict], seed: int | None = Non
     }
 
 
-def _sem(values: list[float]) -> float:
-    return statistics.stdev(values) / len(values) ** 0.5 if len(values) > 1 else 0.0
-
-
 def aggregate(results: Iterable[dict]) -> dict[str, Any]:
     """Summary over episodes (usually seeds of one scenario, crane count and policy).
 
@@ -116,7 +113,7 @@ def aggregate(results: Iterable[dict]) -> dict[str, Any]:
         "episodes": len(rs),
         "success_rate": len(done) / len(rs),
         "makespan_mean": statistics.fmean(done) if done else None,
-        "makespan_sem": _sem(done) if done else None,
+        "makespan_sem": sem(done) if done else None,
         "makespan_min": min(done) if done else None,
         "makespan_max": max(done) if done else None,
         "steps_mean": statistics.fmean(r["steps"] for r in rs),
