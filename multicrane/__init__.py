@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from multicrane.env import MultiCraneEnv
-from multicrane.paper import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
+from multicrane.crane_env import MultiCraneEnv
+from multicrane.paper_env import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
 from multicrane.scenario import Scenario, ScenarioError, load_scenario, scenario_names
 from multicrane.types import Event, EventType, Kind, Move, Status
 
@@ -49,7 +49,9 @@ def _register() -> None:
         env_id = paper_env_id(config)
         if env_id not in gymnasium.registry:
             gymnasium.register(
-                env_id, entry_point="multicrane.paper:PaperAssemblyEnv", kwargs={"config": config}
+                env_id,
+                entry_point="multicrane.paper_env:PaperAssemblyEnv",
+                kwargs={"config": config},
             )
 
 

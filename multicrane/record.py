@@ -14,7 +14,7 @@ episode. :func:`resimulate` refuses a record whose scenario file changed
 (:class:`ScenarioMismatchError`) and one whose re-simulation differs from what was recorded
 (:class:`RecordMismatchError`); both are ``ValueError`` subclasses.
 
-This module does not import rerun (see ``multicrane.replay`` for the 3D viewer).
+This module does not import rerun (see ``multicrane.viewer`` for the 3D viewer).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from multicrane.env import MultiCraneEnv
+from multicrane.crane_env import MultiCraneEnv
 from multicrane.scenario import Scenario, load_scenario, scenario_names, scenarios_dir
 
 RECORD_FORMAT = 1
@@ -47,7 +47,7 @@ class RecordMismatchError(RecordError):
 
 
 class StepObserver(Protocol):
-    """Something that watches an episode as it runs (e.g. ``multicrane.replay`` collectors)."""
+    """Something that watches an episode as it runs (e.g. ``multicrane.viewer`` collectors)."""
 
     def on_reset(self, env: MultiCraneEnv) -> None: ...
 

@@ -55,7 +55,7 @@ class Band:
 
 @dataclass(frozen=True)
 class RandomStart:
-    """The random initial placement rule, as data (see ``multicrane.layout``)."""
+    """The random initial placement rule, as data (see ``multicrane.start``)."""
 
     z: int
     bands: tuple[Band, ...]
@@ -678,7 +678,7 @@ def _check_geometry(s: Scenario, tables: list[_Table]) -> None:
 
     # Random starts: every component drawn at reset must have at least one possible pose.
     if s.random_start is not None:
-        from multicrane.layout import candidate_poses  # late import: layout imports this module
+        from multicrane.start import candidate_poses  # late import: layout imports this module
 
         for i, c in enumerate(s.components):
             if c.initial is None and not c.prebuilt and not candidate_poses(s, c):

@@ -1,9 +1,10 @@
 """The simulator core: occupancy, the component state machine, cranes and their actions.
 
-It knows nothing of PettingZoo or Gymnasium. ``reset`` builds the state from a layout;
-``step`` applies one action per crane, in the order given, each seeing the site as the
-earlier ones left it, so two components can never end a step in the same cell. Legality lives
-here only: the action masks are computed by the same functions that judge the actions.
+It knows nothing of PettingZoo or Gymnasium. ``reset`` builds the state from a start (the
+poses drawn by ``multicrane.start``); ``step`` applies one action per crane, in the order
+given, each seeing the site as the earlier ones left it, so two components can never end a
+step in the same cell. Legality lives here only: the action masks are computed by the same
+functions that judge the actions.
 
 Occupancy is one ``int16`` grid padded by a wall on every side (index ``x + 1, y + 1, z``;
 layer ``z = 0`` is the ground and layer ``height + 1`` the sky, both walls). A cell holds
@@ -19,8 +20,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from multicrane import geometry
-from multicrane.layout import Layout, draw_layout
 from multicrane.scenario import Scenario
+from multicrane.start import Start, draw_start
 from multicrane.types import (
     ASSEMBLE,
     CLAIM_BASE,
@@ -86,7 +87,7 @@ class Simulator:
             self.target_at[cells] = t
         self._target_at = memoryview(self.target_at)
         self._static = self._static_grid()
-        self.layout: Layout | None = None
+        self.start: Start | None = None
 
     # -- pickling: memoryviews are rebuilt, not pickled -------------------------------------
 
@@ -161,10 +162,10 @@ class Simulator:
 
     # -- reset -----------------------------------------------------------------------------
 
-    def reset(self, rng: np.random.Generator, layout: Layout | None = None) -> None:
-        """Start an episode from ``layout`` (default: drawn from ``rng``)."""
+    def reset(self, rng: np.random.Generator, start: Start | None = None) -> None:
+        """Start an episode from ``start`` (default: drawn from ``rng``)."""
         self.rng = rng
-        self.layout = layout if layout is not None else draw_layout(self.scenario, rng)
+        self.start = start if start is not None else draw_start(self.scenario, rng)
         n = self.n_components
         self.occ = self._static.copy().reshape(-1)
         self._occ = memoryview(self.occ)
@@ -177,7 +178,7 @@ class Simulator:
         self.cells: list[list[int]] = [[] for _ in range(n)]
         self.pickup: list[list[int]] = [[] for _ in range(n)]
         for i, c in enumerate(self.scenario.components):
-            t = self.layout.prebuilt_target[i]
+            t = self.start.prebuilt_target[i]
             if t >= 0:
                 self.cells[i] = list(self.target_cells[t])
                 self.status[i] = Status.ASSEMBLED
@@ -185,13 +186,13 @@ class Simulator:
                 self.filled[i] = t
                 self.filled_by[t] = i
             else:
-                pose = self.layout.initial[i]
+                pose = self.start.initial[i]
                 assert pose is not None
                 self.cells[i] = self._lin_pose(pose)
                 lifted = geometry.pickup_pose(c, self.scenario.beam_lift_z, pose)
                 self.pickup[i] = self._lin_pose(lifted)
             for j in self.cells[i]:
-                assert self._occ[j] == FREE, "the loader and layout guarantee free cells"
+                assert self._occ[j] == FREE, "the loader and the start draw guarantee free cells"
                 self._occ[j] = i + 1
         self._status = memoryview(self.status)
         # Claimability bookkeeping: which components' pick-up poses cover each cell.

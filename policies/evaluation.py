@@ -18,7 +18,7 @@ import statistics
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from multicrane.paper import PaperAssemblyEnv
+from multicrane.paper_env import PaperAssemblyEnv
 
 
 def sem(values: list[float]) -> float:

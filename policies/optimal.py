@@ -7,7 +7,7 @@ is always better, and what is left to choose is which target each component fill
 targets are interchangeable, which changes the paths (and the pointer's skips) of all later
 components. ``plan`` searches those choices exhaustively, depth first, with memoisation on
 the state that matters for the future (filled targets, arrived components, pointer, pass-
-over), following a shortest collision-free path for each choice (``policies.paths``). Paths
+over), following a shortest collision-free path for each choice (``multicrane.paths``). Paths
 never pass through the pose of another target the component could fill, since it would
 arrive there. The return of every branch is summed by the environment's own reward function
 on a simulator, so the plan replays through the environment to exactly its return.
@@ -21,10 +21,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from multicrane.paper import PaperAssemblyEnv
+from multicrane.paper_env import PaperAssemblyEnv
+from multicrane.paths import field_from, goal_positions, path_to
 from multicrane.reward import step_reward
 from multicrane.simulator import NOBODY, Simulator
-from policies.paths import field_from, goal_positions, path_to
 
 
 @dataclass(frozen=True)

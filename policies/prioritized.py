@@ -47,7 +47,7 @@ other reservation touches the goal's cells from then on.
 
 **Search.** A* over (position, time) states: wait or one of the six moves per step, cost
 one per step, heuristic the breadth-first distance to the goal around walls, obstacles and
-placed components (a ``policies.paths``-style array BFS, cached until a component arrives;
+placed components (a ``multicrane.paths``-style array BFS, cached until a component arrives;
 admissible, since yard components and components in transit only add detours). A time cap
 (shortest length + ``slack``) and an expansion cap bound each search; a failed search means
 "not now": the crane waits and tries again at the next decision.
@@ -77,9 +77,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from multicrane.paths import breadth_first, fits_everywhere
 from multicrane.simulator import FREE, NOBODY, WALL, Simulator
 from multicrane.types import ASSEMBLE, CLAIM_BASE, WAIT, Status
-from policies.paths import breadth_first, fits_everywhere
 
 INF = 1 << 40  # "for ever" in the reservation table
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)

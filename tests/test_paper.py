@@ -36,8 +36,8 @@ from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import multicrane
-from multicrane.env import MultiCraneEnv
-from multicrane.paper import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
+from multicrane.crane_env import MultiCraneEnv
+from multicrane.paper_env import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
 from multicrane.scenario import Box, Scenario, load_scenario
 from multicrane.simulator import NOBODY
 from multicrane.types import EventType, Kind, Status
@@ -384,7 +384,7 @@ def test_single_agent_agrees_with_multi_agent_auto(config):
         planned = list(cached_plan(config, seed).actions) if mode != 1 else []
         g.reset(seed=seed)
         m.reset(seed=seed)
-        assert g.sim.layout == m.sim.layout, (config, seed)
+        assert g.sim.start == m.sim.start, (config, seed)
         assert all_cells(g.sim) == all_cells(m.sim), (config, seed)
         assert np.array_equal(g.sim.status, m.sim.status)
         step = 0
@@ -419,7 +419,7 @@ def test_unseeded_resets_agree_with_multi_agent_auto(config):
     for _ in range(5):
         g.reset()
         m.reset()
-        assert g.sim.layout == m.sim.layout
+        assert g.sim.start == m.sim.start
         assert all_cells(g.sim) == all_cells(m.sim)
 
 
@@ -591,7 +591,7 @@ def test_first_action_lifts_and_moves(config):
         assert info["component"] == comp_id
         c = env.scenario.index_of(comp_id)
         spec = env.scenario.components[c]
-        lifted = expected_pickup(spec, env.sim.layout.initial[c])
+        lifted = expected_pickup(spec, env.sim.start.initial[c])
         assert env.sim.status[c] == Status.INITIAL and env.sim.moves[c] == 0
         _, r, _, _, info = env.step(UP)
         assert event_types(info)[:1] == [EventType.LIFTED]
@@ -872,7 +872,7 @@ def test_same_seed_same_start(config):
         obs_a2, _ = a.reset(seed=seed)  # again, after play
         obs_b, info_b = b.reset(seed=seed)
         assert np.array_equal(obs_a, obs_b) and np.array_equal(obs_a, obs_a2)
-        assert a.sim.layout == b.sim.layout
+        assert a.sim.start == b.sim.start
         assert all_cells(a.sim) == all_cells(b.sim)
         assert info_a["component"] == info_b["component"]
 
@@ -885,13 +885,13 @@ def test_random_starts_differ_and_follow_the_rule(config):
     directions = set()
     for seed in range(30):
         env.reset(seed=seed)
-        layouts.add(env.sim.layout)
+        layouts.add(env.sim.start)
         occupied = set()
         for c in scenario.order:
             spec = scenario.components[c]
             if spec.prebuilt:
                 continue
-            (x, y, z), node2 = env.sim.layout.initial[c]
+            (x, y, z), node2 = env.sim.start.initial[c]
             assert z == 1 and 3 <= x <= 11 and 3 <= y <= (7 if x < 6 else 5), (seed, spec.id)
             length = spec.length - 1
             assert node2 in ((x - length, y, 1), (x, y - length, 1)), (seed, spec.id)
@@ -905,7 +905,7 @@ def test_random_starts_differ_and_follow_the_rule(config):
     first = set()
     for seed in range(10):
         env.reset(seed=seed)
-        first.add(env.sim.layout)
+        first.add(env.sim.start)
     assert len(first) > 1
 
 
@@ -941,7 +941,7 @@ def test_random_start_distribution():
     xs, ys, along_x = [], [], []
     for seed in range(600):
         env.reset(seed=seed)
-        (x, y, _), (x2, _, _) = env.sim.layout.initial[beam]
+        (x, y, _), (x2, _, _) = env.sim.start.initial[beam]
         xs.append(x)
         ys.append(y)
         along_x.append(x2 != x)

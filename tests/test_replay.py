@@ -150,9 +150,9 @@ _BLOCK_RERUN = textwrap.dedent(
     rec = record_episode(env, RandomPolicy(0), seed=0)
     _, rewards, _ = resimulate(rec)
     assert abs(sum(rewards) - rec.metrics["return"]) < 1e-9
-    import multicrane.replay  # importable; rerun is needed only when logging
+    import multicrane.viewer  # importable; rerun is needed only when logging
     try:
-        multicrane.replay.new_recording()
+        multicrane.viewer.new_recording()
     except ImportError as exc:
         assert "rerun-sdk" in str(exc), exc
     else:
@@ -207,9 +207,9 @@ def _statuses(record: EpisodeRecord) -> list[list[int]]:
 
 
 def test_rrd_file_contents(rr, hall_record, tmp_path):
-    from multicrane import replay
+    from multicrane import viewer
 
-    path = replay.record_to_rrd(hall_record, tmp_path / "hall.rrd")
+    path = viewer.record_to_rrd(hall_record, tmp_path / "hall.rrd")
     chunks = _read_rrd(path)
     n = multicrane.load_scenario("hall-4c").n_components
     T = hall_record.steps
@@ -230,12 +230,12 @@ def test_rrd_file_contents(rr, hall_record, tmp_path):
     assert steps == list(range(T + 1))
     _, centers = _column(chunks[("/components", False)], "Boxes3D:centers")
     assert all(len(c) == n for c in centers)
-    expected = replay.pack_colors(np.array(_statuses(hall_record)))
+    expected = viewer.pack_colors(np.array(_statuses(hall_record)))
     assert np.array_equal(np.array(colors, dtype=np.uint32), expected)
     # Colours really differ by state: the first step shows initial (orange) components
     # and the last one only assembled (pink) ones.
-    assert replay.pack_colors(np.array(int(Status.INITIAL))) in colors[0]
-    assert set(colors[-1]) == {int(replay.pack_colors(np.array(int(Status.ASSEMBLED))))}
+    assert viewer.pack_colors(np.array(int(Status.INITIAL))) in colors[0]
+    assert set(colors[-1]) == {int(viewer.pack_colors(np.array(int(Status.ASSEMBLED))))}
 
     for entity in ("/metrics/reward", "/metrics/return", "/metrics/progress"):
         s, _ = _column(chunks[(entity, False)], "Scalars:scalars")
@@ -257,11 +257,11 @@ def test_rrd_file_contents(rr, hall_record, tmp_path):
 
 
 def test_collected_while_running_equals_replayed(rr, tmp_path):
-    from multicrane import replay
+    from multicrane import viewer
 
     env = multicrane.parallel_env("frame2-3c", max_steps=50)
-    rec = replay.record_and_save(env, RandomPolicy(5), 5, tmp_path / "live.rrd", "random")
-    replay.record_to_rrd(rec, tmp_path / "again.rrd")
+    rec = viewer.record_and_save(env, RandomPolicy(5), 5, tmp_path / "live.rrd", "random")
+    viewer.record_to_rrd(rec, tmp_path / "again.rrd")
     a, b = _read_rrd(tmp_path / "live.rrd"), _read_rrd(tmp_path / "again.rrd")
     for entity in ("/components", "/cranes/hooks", "/metrics/return"):
         name = {
@@ -273,12 +273,12 @@ def test_collected_while_running_equals_replayed(rr, tmp_path):
 
 
 def test_live_viewer_logs_step_by_step(rr):
-    from multicrane import replay
+    from multicrane import viewer
 
-    stream = replay.new_recording("test")
+    stream = viewer.new_recording("test")
     stream.memory_recording()  # a sink that needs no viewer
     env = multicrane.parallel_env("frame2-3c", max_steps=20)
-    record = replay.run_live(env, RandomPolicy(2), 2, stream)
+    record = viewer.run_live(env, RandomPolicy(2), 2, stream)
     assert record.steps == 20
 
 

@@ -417,7 +417,7 @@ def test_reward_split_adds_up():
 
 
 def test_move_limit_cost_starts_with_the_16th_move():
-    from multicrane.env import MultiCraneEnv
+    from multicrane.crane_env import MultiCraneEnv
 
     env = MultiCraneEnv(parse_scenario(micro_site(), "micro.toml"), auto=True)
     env.reset(seed=0)

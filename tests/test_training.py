@@ -32,8 +32,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: E402
 
 import multicrane  # noqa: E402
 import multicrane.training.trainer as trainer  # noqa: E402
-from multicrane.env import MultiCraneEnv  # noqa: E402
-from multicrane.paper import PaperAssemblyEnv  # noqa: E402
+from multicrane.crane_env import MultiCraneEnv  # noqa: E402
+from multicrane.paper_env import PaperAssemblyEnv  # noqa: E402
 from multicrane.training import ConfigError, CraneVecEnv, TrainConfig, train  # noqa: E402
 from multicrane.training.algorithms import (  # noqa: E402
     MULTI_ALGORITHMS,

@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from multicrane.benchmark.reference import ALGORITHMS, SIGN_FIXED, TABLE_I  # noqa: E402
-from multicrane.paper import PAPER_CONFIGS, PaperAssemblyEnv  # noqa: E402
+from multicrane.paper_env import PAPER_CONFIGS, PaperAssemblyEnv  # noqa: E402
 from policies.optimal import plan  # noqa: E402
 from policies.paper_greedy import PaperGreedyPolicy  # noqa: E402
 from policies.random_policy import RandomPolicy  # noqa: E402

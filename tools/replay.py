@@ -99,14 +99,14 @@ def _make_env(args: argparse.Namespace):
 
 
 def _stream(args: argparse.Namespace, name: str, scenario):
-    from multicrane import replay
+    from multicrane import viewer
 
-    rec = replay.new_recording(name)
+    rec = viewer.new_recording(name)
     if args.spawn:
-        rec.spawn(default_blueprint=replay.blueprint(scenario, args.play_state))
+        rec.spawn(default_blueprint=viewer.blueprint(scenario, args.play_state))
     else:
         rec.connect_grpc(args.connect or None,
-                         default_blueprint=replay.blueprint(scenario, args.play_state))  # fmt: skip
+                         default_blueprint=viewer.blueprint(scenario, args.play_state))  # fmt: skip
     return rec
 
 
@@ -120,13 +120,13 @@ def _summary(record: EpisodeRecord) -> str:
 
 
 def cmd_live(args: argparse.Namespace) -> int:
-    from multicrane import replay
+    from multicrane import viewer
 
     if not (args.spawn or args.connect is not None):
         args.spawn = True
     env = _make_env(args)
     rec = _stream(args, f"{env.scenario.name} live", env.scenario)
-    record = replay.run_live(env, make_policy(args.policy, env, args.seed), args.seed, rec,
+    record = viewer.run_live(env, make_policy(args.policy, env, args.seed), args.seed, rec,
                              policy_name=args.policy)  # fmt: skip
     rec.flush()
     print(_summary(record))
@@ -137,7 +137,7 @@ def cmd_live(args: argparse.Namespace) -> int:
 
 
 def cmd_record(args: argparse.Namespace) -> int:
-    from multicrane import replay
+    from multicrane import viewer
 
     if not (args.rrd or args.record):
         print("error: give --rrd and/or --record", file=sys.stderr)
@@ -145,7 +145,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     env = _make_env(args)
     policy = make_policy(args.policy, env, args.seed)
     if args.rrd:
-        record = replay.record_and_save(env, policy, args.seed, args.rrd, args.policy,
+        record = viewer.record_and_save(env, policy, args.seed, args.rrd, args.policy,
                                         play_state=args.play_state)  # fmt: skip
         print(f"replay: {args.rrd}")
     else:
@@ -158,19 +158,19 @@ def cmd_record(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from multicrane import replay
+    from multicrane import viewer
 
     try:
         record = EpisodeRecord.load(args.record)
         if args.rrd:
-            replay.record_to_rrd(record, args.rrd, play_state=args.play_state)
+            viewer.record_to_rrd(record, args.rrd, play_state=args.play_state)
             print(f"replay: {args.rrd}")
         else:
             if not (args.spawn or args.connect is not None):
                 args.spawn = True
             scenario = record.load_scenario()
-            rec = _stream(args, replay._name(record), scenario)
-            replay.send_record(record, rec)
+            rec = _stream(args, viewer._name(record), scenario)
+            viewer.send_record(record, rec)
             rec.flush()
     except RecordError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -190,7 +190,7 @@ def bench(
 ) -> dict:
     """Time ``repeats`` episodes of at most ``steps`` steps without and with recording to an
     .rrd file (collecting as it runs, then ``send_columns``) plus the episode record."""
-    from multicrane import replay
+    from multicrane import viewer
 
     env = multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, max_steps=steps)
     plain, recorded, n_steps = [], [], 0
@@ -201,7 +201,7 @@ def bench(
             plain.append(time.perf_counter() - t0)
             n_steps = rec.steps
             t0 = time.perf_counter()
-            rec2 = replay.record_and_save(
+            rec2 = viewer.record_and_save(
                 env, make_policy(policy, env, seed + i), seed + i, Path(tmp) / "e.rrd", policy
             )
             rec2.save(Path(tmp) / "e.json.gz")

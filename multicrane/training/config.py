@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from multicrane.paper import PAPER_CONFIGS
+from multicrane.paper_env import PAPER_CONFIGS
 
 DEFAULT_SHAPING = 1.0  # multi-agent mode; see multicrane.training.shaping
 

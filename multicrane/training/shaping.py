@@ -18,9 +18,9 @@ learner sees changes.
 
 from __future__ import annotations
 
+from multicrane.paths import current_cells, goal_positions
 from multicrane.simulator import NOBODY, Simulator
 from multicrane.types import Status
-from policies.paths import current_cells, goal_positions
 
 _ASSEMBLED = int(Status.ASSEMBLED)
 _ARRIVED = int(Status.ARRIVED)

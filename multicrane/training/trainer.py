@@ -55,14 +55,14 @@ PACKAGES = (
 
 
 def paper_env(cfg: TrainConfig, algo: Algorithm):
-    from multicrane.paper import PaperAssemblyEnv
+    from multicrane.paper_env import PaperAssemblyEnv
 
     mask = algo.masked if cfg.mask_blocked_moves is None else cfg.mask_blocked_moves
     return PaperAssemblyEnv(cfg.scenario, mask_blocked_moves=mask)
 
 
 def multi_env(cfg: TrainConfig):
-    from multicrane.env import MultiCraneEnv
+    from multicrane.crane_env import MultiCraneEnv
 
     return MultiCraneEnv(
         cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto, max_steps=cfg.max_steps

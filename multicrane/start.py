@@ -1,7 +1,7 @@
 """The generator: where each component starts an episode.
 
 Called once per ``reset`` with the episode's ``np.random.Generator``; nothing else draws random
-numbers for the layout. Order of draws: first the target of every pre-built component that may
+numbers for the start. Order of draws: first the target of every pre-built component that may
 stand on several targets (the paper's Env1 coin), then the random initial poses in list order.
 """
 
@@ -15,11 +15,11 @@ from multicrane import geometry
 from multicrane.scenario import ComponentSpec, Scenario, ScenarioError
 
 Pose = geometry.Pose
-MAX_LAYOUT_ATTEMPTS = 1000
+MAX_START_ATTEMPTS = 1000
 
 
 @dataclass(frozen=True)
-class Layout:
+class Start:
     """Initial poses (None for pre-built components) and the target each pre-built one fills."""
 
     initial: tuple[Pose | None, ...]
@@ -96,8 +96,8 @@ def _usable(scenario: Scenario, component: ComponentSpec, pose: Pose, obstacle: 
     )
 
 
-def draw_layout(scenario: Scenario, rng: np.random.Generator) -> Layout:
-    """Draw one episode's layout; deterministic given the generator's state."""
+def draw_start(scenario: Scenario, rng: np.random.Generator) -> Start:
+    """Draw one episode's start; deterministic given the generator's state."""
     comps = scenario.components
     prebuilt_target = [-1] * len(comps)
     taken_targets: set[int] = set()
@@ -121,15 +121,15 @@ def draw_layout(scenario: Scenario, rng: np.random.Generator) -> Layout:
         if c.initial is not None:
             fixed[[_flat(scenario, cell) for cell in geometry.pose_cells(*c.initial)]] = True
     drawn = [i for i in scenario.order if comps[i].initial is None and not comps[i].prebuilt]
-    for _ in range(MAX_LAYOUT_ATTEMPTS):
+    for _ in range(MAX_START_ATTEMPTS):
         poses = _draw_random_poses(scenario, drawn, fixed, rng)
         if poses is not None:
             initial = [c.initial for c in comps]
             for i, pose in poses.items():
                 initial[i] = pose
-            return Layout(tuple(initial), tuple(prebuilt_target))
+            return Start(tuple(initial), tuple(prebuilt_target))
     raise ScenarioError(
-        f"{scenario.source}: random_start found no layout in {MAX_LAYOUT_ATTEMPTS} attempts"
+        f"{scenario.source}: random_start found no start in {MAX_START_ATTEMPTS} attempts"
     )
 
 

@@ -1,6 +1,6 @@
 """3D replays of episodes with rerun (``pip install "multicrane[replay]"``).
 
-    from multicrane.replay import record_to_rrd, LiveViewer
+    from multicrane.viewer import record_to_rrd, LiveViewer
     record_to_rrd(record, "episode.rrd")          # an EpisodeRecord, re-simulated, to a file
 
 Entities (one timeline, ``step``; step 0 is the state after reset):
@@ -33,7 +33,7 @@ from multicrane.record import EpisodeRecord, EventRow, record_episode, replay_st
 from multicrane.types import Status
 
 if TYPE_CHECKING:
-    from multicrane.env import MultiCraneEnv
+    from multicrane.crane_env import MultiCraneEnv
     from multicrane.scenario import Scenario
 
 APPLICATION_ID = "multicrane"
@@ -68,7 +68,7 @@ def _rerun():
         import rerun
     except ImportError as exc:
         raise ImportError(
-            "multicrane.replay needs rerun-sdk 0.41: pip install 'multicrane[replay]' "
+            "multicrane.viewer needs rerun-sdk 0.41: pip install 'multicrane[replay]' "
             "(or pip install 'rerun-sdk>=0.41,<0.42')"
         ) from exc
     return rerun

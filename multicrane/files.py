@@ -1,0 +1,25 @@
+"""Atomic file writes: a reader (or a crash) never sees half a file."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+
+def write_atomic(path: str | Path, data: str | bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path`` (named with this process's id, so two
+    writers never share it), then rename it over ``path``."""
+    path = Path(path)
+    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}")
+    if isinstance(data, bytes):
+        tmp.write_bytes(data)
+    else:
+        tmp.write_text(data)
+    tmp.replace(path)
+
+
+def write_json_atomic(path: str | Path, obj: Any, indent: int = 1) -> None:
+    """``obj`` as JSON (sorted keys are the caller's choice), ending with a newline."""
+    write_atomic(path, json.dumps(obj, indent=indent) + "\n")
