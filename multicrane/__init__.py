@@ -14,7 +14,9 @@ from pathlib import Path
 
 from multicrane.crane_env import MultiCraneEnv
 from multicrane.paper_env import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
-from multicrane.scenario import Scenario, ScenarioError, load_scenario, scenario_names
+from multicrane.scenario import Scenario, ScenarioError
+from multicrane.scenario_catalog import scenario_names
+from multicrane.scenario_loader import load_scenario
 from multicrane.types import Event, EventType, Kind, Move, Status
 
 __version__ = "0.1.0"

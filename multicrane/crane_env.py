@@ -12,7 +12,8 @@ from pettingzoo import ParallelEnv
 from multicrane import reward as reward_rules
 from multicrane.observation import Observer
 from multicrane.render import render_ansi
-from multicrane.scenario import Scenario, load_scenario
+from multicrane.scenario import Scenario
+from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
 

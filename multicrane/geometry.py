@@ -7,15 +7,29 @@ at load and reset time, not in the step.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from multicrane.types import Kind
 
-if TYPE_CHECKING:
-    from multicrane.scenario import ComponentSpec
-
 Cell = tuple[int, int, int]
 Pose = tuple[Cell, Cell]
+
+
+class StraightComponent(Protocol):
+    """What the pick-up rule reads of a component (``multicrane.scenario.ComponentSpec`` is
+    one); geometry stays below the scenario schema and never imports it."""
+
+    @property
+    def kind(self) -> Kind: ...
+
+    @property
+    def length(self) -> int: ...
+
+    @property
+    def initial(self) -> Pose | None: ...
+
+    @property
+    def target(self) -> Pose: ...
 
 
 def is_straight(a: tuple[int, ...], b: tuple[int, ...]) -> bool:
@@ -75,7 +89,7 @@ def lifted_pose(
 
 
 def pickup_pose(
-    component: ComponentSpec, beam_lift_z: int | None, initial: Pose | None = None
+    component: StraightComponent, beam_lift_z: int | None, initial: Pose | None = None
 ) -> Pose:
     """The lifted pose of a component lying at ``initial`` (default: its scenario pose)."""
     start = initial if initial is not None else component.initial

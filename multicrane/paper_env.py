@@ -23,7 +23,8 @@ from multicrane.observation import (
 )
 from multicrane.render import render_ansi
 from multicrane.reward import step_reward
-from multicrane.scenario import Scenario, load_scenario
+from multicrane.scenario import Scenario
+from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
 from multicrane.types import N_MOVES
 

@@ -27,7 +27,9 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from multicrane.crane_env import MultiCraneEnv
-from multicrane.scenario import Scenario, load_scenario, scenario_names, scenarios_dir
+from multicrane.scenario import Scenario
+from multicrane.scenario_catalog import scenario_names, scenarios_dir
+from multicrane.scenario_loader import load_scenario
 
 RECORD_FORMAT = 1
 

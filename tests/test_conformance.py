@@ -19,7 +19,7 @@ from conftest import SCENARIOS, random_masked_actions
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
 
 import multicrane
-from multicrane.scenario import load_scenario
+from multicrane.scenario_loader import load_scenario
 from multicrane.types import ASSEMBLE, CLAIM_BASE, WAIT, EventType, Move, Status
 
 REPO = Path(__file__).resolve().parent.parent

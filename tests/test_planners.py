@@ -16,7 +16,7 @@ import pytest
 from conftest import SCENARIOS
 
 import multicrane
-from multicrane.scenario import parse_scenario
+from multicrane.scenario_loader import parse_scenario
 from multicrane.types import EventType
 from policies.greedy import GreedyPolicy
 from policies.metrics import aggregate, evaluate, run_with_metrics

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from multicrane.reward import split, team_reward
-from multicrane.scenario import RewardSpec, parse_scenario
+from multicrane.scenario import RewardSpec
+from multicrane.scenario_loader import parse_scenario
 from multicrane.simulator import Simulator
 from multicrane.types import ASSEMBLE, CLAIM_BASE, WAIT, EventType, Move, Status
 

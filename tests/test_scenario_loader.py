@@ -1,4 +1,4 @@
-"""Tests of the strict scenario loader (``multicrane.scenario``).
+"""Tests of the strict scenario loader (``multicrane.scenario_loader``).
 
 One valid base scenario (the paper's e2s2 plus an obstacle box in the yard) is parsed and
 checked value by value. Every broken case is that base with one small text edit; the loader
@@ -17,16 +17,10 @@ from pathlib import Path
 
 import pytest
 
-from multicrane import scenario as scenario_module
-from multicrane.scenario import (
-    Box,
-    RewardSpec,
-    Scenario,
-    ScenarioError,
-    load_scenario,
-    parse_scenario,
-    resolve,
-)
+from multicrane import scenario_catalog
+from multicrane.scenario import Box, RewardSpec, Scenario, ScenarioError
+from multicrane.scenario_catalog import resolve
+from multicrane.scenario_loader import load_scenario, parse_scenario
 from multicrane.types import Kind
 
 BASE = """\
@@ -395,8 +389,8 @@ def test_unknown_shipped_name_lists_the_known_names(tmp_path, monkeypatch):
     shipped.mkdir()
     for name in ("alpha", "beta"):
         (shipped / f"{name}.toml").write_text(BASE.replace('name = "base"\n', ""))
-    monkeypatch.setattr(scenario_module, "scenarios_dir", lambda: shipped)
-    assert scenario_module.scenario_names() == ["alpha", "beta"]
+    monkeypatch.setattr(scenario_catalog, "scenarios_dir", lambda: shipped)
+    assert scenario_catalog.scenario_names() == ["alpha", "beta"]
     with pytest.raises(ScenarioError) as info:
         resolve("gamma")
     message = str(info.value)
@@ -409,11 +403,11 @@ def test_unknown_shipped_name_lists_the_known_names(tmp_path, monkeypatch):
 def test_unknown_name_lists_the_real_shipped_names():
     with pytest.raises(ScenarioError) as info:
         resolve("no-such-scenario-xyz")
-    for name in scenario_module.scenario_names():
+    for name in scenario_catalog.scenario_names():
         assert name in str(info.value)
 
 
-@pytest.mark.parametrize("name", scenario_module.scenario_names())
+@pytest.mark.parametrize("name", scenario_catalog.scenario_names())
 def test_every_shipped_scenario_loads(name):
     s = load_scenario(name)
     assert s.source.endswith(f"{name}.toml")

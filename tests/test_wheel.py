@@ -73,7 +73,7 @@ def test_installed_wheel_finds_its_scenarios(wheel, tmp_path):
     workdir = tmp_path / "elsewhere"
     workdir.mkdir()
     code = (
-        "import json, multicrane, multicrane.scenario as s\n"
+        "import json, multicrane, multicrane.scenario_catalog as s\n"
         "env = multicrane.parallel_env('e2s2')\n"
         "obs, _ = env.reset(seed=0)\n"
         "print(json.dumps({'file': multicrane.__file__, 'names': multicrane.scenario_names(),"
