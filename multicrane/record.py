@@ -48,8 +48,9 @@ class RecordMismatchError(RecordError):
     """Re-simulating the record did not reproduce the recorded episode."""
 
 
-class StepObserver(Protocol):
-    """Something that watches an episode as it runs (e.g. ``multicrane.viewer`` collectors)."""
+class StepListener(Protocol):
+    """Something told of an episode's reset and each step as it runs (e.g. the 3D replay
+    collector and live viewer of ``multicrane.viewer``)."""
 
     def on_reset(self, env: MultiCraneEnv) -> None: ...
 
@@ -205,11 +206,11 @@ def record_episode(
     policy: Callable[[dict], dict],
     seed: int,
     policy_name: str = "",
-    observers: Sequence[StepObserver] = (),
+    listeners: Sequence[StepListener] = (),
 ) -> EpisodeRecord:
     """Run one episode of ``env`` with ``policy`` from ``seed`` and record it.
 
-    ``observers`` see the reset and every step (a replay collector, a live viewer).
+    ``listeners`` see the reset and every step (a 3D replay collector, a live viewer).
     """
     s = env.scenario
     rec = EpisodeRecord(
@@ -223,8 +224,8 @@ def record_episode(
         policy=policy_name,
     )
     observations, _ = env.reset(seed=int(seed))
-    for obs in observers:
-        obs.on_reset(env)
+    for listener in listeners:
+        listener.on_reset(env)
     agents = env.possible_agents
     first = agents[0]
     total, success = 0.0, False
@@ -239,8 +240,8 @@ def record_episode(
         events = _events_of(env, infos)
         rec.actions.append(joint)
         rec.events.append(events)
-        for obs in observers:
-            obs.on_step(env, joint, r, events)
+        for listener in listeners:
+            listener.on_step(env, joint, r, events)
         success = bool(terms[first])
     rec.metrics = {
         "return": total,
@@ -255,10 +256,10 @@ def record_episode(
 # Re-simulation
 
 
-def replay_steps(
+def resimulate_steps(
     record: EpisodeRecord,
     scenario: str | Path | Scenario | None = None,
-    observers: Sequence[StepObserver] = (),
+    listeners: Sequence[StepListener] = (),
     check: bool = True,
 ) -> Iterator[tuple[MultiCraneEnv, int, float, list[EventRow]]]:
     """Re-simulate a record step by step: yields ``(env, step, reward, events)``, first for
@@ -269,8 +270,8 @@ def replay_steps(
     if len(agents) != record.n_cranes:
         raise RecordError(f"episode record: {record.n_cranes} cranes, env has {len(agents)}")
     env.reset(seed=record.seed)
-    for obs in observers:
-        obs.on_reset(env)
+    for listener in listeners:
+        listener.on_reset(env)
     yield env, 0, 0.0, []
     for t, joint in enumerate(record.actions, start=1):
         if not env.agents:
@@ -290,15 +291,15 @@ def replay_steps(
                 f"episode record refused: step {t} of {record.scenario!r} re-simulates to "
                 f"events {events} but the record has {list(record.events[t - 1])}"
             )
-        for obs in observers:
-            obs.on_step(env, joint, r, events)
+        for listener in listeners:
+            listener.on_step(env, joint, r, events)
         yield env, t, r, events
 
 
 def resimulate(
     record: EpisodeRecord,
     scenario: str | Path | Scenario | None = None,
-    observers: Sequence[StepObserver] = (),
+    listeners: Sequence[StepListener] = (),
 ) -> tuple[MultiCraneEnv, list[float], dict[str, Any]]:
     """Re-simulate a record exactly: ``(env, per-step rewards, final state)``.
 
@@ -308,7 +309,7 @@ def resimulate(
     """
     rewards: list[float] = []
     env = None
-    for step_env, t, r, _ in replay_steps(record, scenario, observers):
+    for step_env, t, r, _ in resimulate_steps(record, scenario, listeners):
         env = step_env
         if t:
             rewards.append(r)
@@ -338,9 +339,9 @@ __all__ = [
     "RecordError",
     "RecordMismatchError",
     "ScenarioMismatchError",
-    "StepObserver",
+    "StepListener",
     "final_state",
     "record_episode",
-    "replay_steps",
+    "resimulate_steps",
     "resimulate",
 ]

@@ -23,8 +23,8 @@ from multicrane.record import (
     ScenarioMismatchError,
     final_state,
     record_episode,
-    replay_steps,
     resimulate,
+    resimulate_steps,
 )
 from multicrane.types import Status
 from policies.prioritized import PrioritizedPlanner
@@ -125,7 +125,7 @@ def test_malformed_record_is_refused(tmp_path):
 
 
 def test_replay_steps_yields_every_step(hall_record):
-    steps = [t for _, t, _, _ in replay_steps(hall_record)]
+    steps = [t for _, t, _, _ in resimulate_steps(hall_record)]
     assert steps == list(range(hall_record.steps + 1))
 
 
@@ -203,7 +203,7 @@ def _column(chunks: list, name: str) -> tuple[list[int], list]:
 
 
 def _statuses(record: EpisodeRecord) -> list[list[int]]:
-    return [env.sim.status.tolist() for env, _, _, _ in replay_steps(record)]
+    return [env.sim.status.tolist() for env, _, _, _ in resimulate_steps(record)]
 
 
 def test_rrd_file_contents(rr, hall_record, tmp_path):

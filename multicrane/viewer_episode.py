@@ -1,0 +1,203 @@
+"""An episode collected for the 3D replay: per-step arrays of what is drawn, sent to rerun
+with one ``send_columns`` call per entity.
+
+Collecting needs no rerun; only :meth:`EpisodeCollector.send` imports it.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from multicrane.record import EventRow
+from multicrane.types import Status
+from multicrane.viewer_scene import TIMELINE, import_rerun, log_static, pack_colors
+
+if TYPE_CHECKING:
+    from multicrane.crane_env import MultiCraneEnv
+
+# Events shown in the text log, with their level.
+LOGGED_EVENTS = {
+    "CLAIMED": "INFO",
+    "ARRIVED": "INFO",
+    "ASSEMBLED": "INFO",
+    "BLOCKED": "WARN",
+    "LIFT_BLOCKED": "WARN",
+    "CLAIM_CONFLICT": "WARN",
+    "ILLEGAL": "WARN",
+}
+
+
+class EpisodeCollector:
+    """A ``StepListener`` that keeps, per step, what the replay draws.
+
+    Pass it to ``record_episode(..., listeners=[collector])`` or ``resimulate_steps``; then
+    ``send(rec)`` logs everything with ``send_columns``.
+    """
+
+    def __init__(self) -> None:
+        self.env: MultiCraneEnv | None = None
+
+    def on_reset(self, env: MultiCraneEnv) -> None:
+        self.env = env
+        self.steps: list[int] = []
+        self.status: list[np.ndarray] = []
+        self.cells: list[list[list[int]]] = []  # per step, each component's cell list
+        self.held: list[list[int]] = []
+        self.rewards: list[float] = []
+        self.events: list[list[EventRow]] = []
+        self._capture(0.0, [])
+
+    def on_step(self, env: MultiCraneEnv, actions: list[int], reward: float, events) -> None:
+        self._capture(reward, events)
+
+    def _capture(self, reward: float, events: list[EventRow]) -> None:
+        # Cheap on purpose: the simulator replaces a moved component's cell list (it never
+        # mutates one), so keeping references is enough; boxes are computed in ``boxes``.
+        sim = self.env.sim
+        self.steps.append(sim.step_count)
+        self.status.append(sim.status.copy())
+        self.cells.append(list(sim.cells))
+        self.held.append(list(sim.held))
+        self.rewards.append(reward)
+        self.events.append(events)
+
+    def boxes(self, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Box corners ``lo, hi`` (T, C, 3) of every component from step index ``start``."""
+        sim = self.env.sim
+        per_step = self.cells[start:]
+        T, n = len(per_step), sim.n_components
+        lo = np.empty((T, n, 3), dtype=np.float32)
+        hi = np.empty((T, n, 3), dtype=np.float32)
+        last: list = [None] * n
+        lo_now = np.zeros((n, 3), dtype=np.float32)
+        hi_now = np.zeros((n, 3), dtype=np.float32)
+        cell = sim.cell
+        for t, cells in enumerate(per_step):
+            for i, c in enumerate(cells):
+                if c is not last[i]:
+                    last[i] = c
+                    # A component is a straight run of cells: the smallest and largest
+                    # linear indices are its two corner cells.
+                    lo_now[i] = cell(min(c))
+                    hi_now[i] = cell(max(c))
+            lo[t] = lo_now
+            hi[t] = hi_now
+        lo[..., 2] -= 1
+        hi[..., :2] += 1
+        return lo, hi
+
+    # -- sending -----------------------------------------------------------------------------
+
+    def send(self, rec, static: bool = True) -> None:
+        """Log the collected episode to ``rec`` (a RecordingStream): static site (unless
+        ``static=False``), then every time series with one ``send_columns`` per entity."""
+        rr = import_rerun()
+        env = self.env
+        if env is None:
+            raise RuntimeError("nothing collected: the collector never saw a reset")
+        if static:
+            log_static(rec, env.scenario, env.sim)
+        steps = np.asarray(self.steps, dtype=np.int64)
+        T, n = len(steps), env.sim.n_components
+        time = [rr.TimeColumn(TIMELINE, sequence=steps)]
+        lo, hi = self.boxes()
+        status = np.stack(self.status)
+        rec.send_columns(
+            "components",
+            indexes=time,
+            columns=rr.Boxes3D.columns(
+                centers=((lo + hi) / 2).reshape(-1, 3),
+                half_sizes=((hi - lo) / 2).reshape(-1, 3),
+                colors=pack_colors(status).reshape(-1),
+            ).partition([n] * T),
+        )
+        hooks, cables = crane_geometry(env, lo, hi, np.asarray(self.held))
+        k = env.sim.n_cranes
+        rec.send_columns(
+            "cranes/hooks",
+            indexes=time,
+            columns=rr.Points3D.columns(positions=hooks.reshape(-1, 3)).partition([k] * T),
+        )
+        rec.send_columns(
+            "cranes/cables",
+            indexes=time,
+            columns=rr.LineStrips3D.columns(strips=cables.reshape(-1, 2, 3)).partition([k] * T),
+        )
+        rewards = np.asarray(self.rewards)
+        assembled = (status == int(Status.ASSEMBLED)).sum(axis=1)
+        for name, values in (
+            ("reward", rewards),
+            ("return", np.cumsum(rewards)),
+            ("progress", assembled / max(n, 1)),
+        ):
+            rec.send_columns(
+                f"metrics/{name}", indexes=time, columns=rr.Scalars.columns(scalars=values)
+            )
+        texts, levels, at = [], [], []
+        for t, events in zip(steps, self.events, strict=True):
+            for etype, crane, comp in events:
+                if etype in LOGGED_EVENTS:
+                    texts.append(event_text(env, etype, crane, comp))
+                    levels.append(LOGGED_EVENTS[etype])
+                    at.append(t)
+        if texts:
+            rec.send_columns(
+                "events",
+                indexes=[rr.TimeColumn(TIMELINE, sequence=np.asarray(at, dtype=np.int64))],
+                columns=rr.TextLog.columns(text=texts, level=levels),
+            )
+
+
+def home_positions(env: MultiCraneEnv) -> np.ndarray:
+    """Where the hooks wait before their first claim: spread along the low-y edge."""
+    X, Y, H = env.scenario.size
+    k = env.sim.n_cranes
+    return np.array([[(i + 0.5) * X / k, -1.0, H + 1.0] for i in range(k)], dtype=np.float32)
+
+
+def crane_geometry(
+    env: MultiCraneEnv,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    held: np.ndarray,
+    home: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Hook positions (T, k, 3) above held components (an idle crane stays where it last
+    was; before its first claim it waits at ``home``, default ``home_positions``) and
+    cables (T, k, 2, 3)."""
+    T, k = held.shape
+    hook_z = env.scenario.size[2] + 1.0
+    if home is None:
+        home = home_positions(env)
+    holding = held >= 0
+    rows = np.arange(T)[:, None]
+    comp = np.where(holding, held, 0)
+    centre = (lo[rows, comp] + hi[rows, comp]) / 2  # (T, k, 3)
+    # Forward-fill each crane's position from the last step it held something.
+    src = np.maximum.accumulate(np.where(holding, rows, -1), axis=0)  # (T, k)
+    cranes = np.arange(k)[None, :]
+    hooks = centre[np.maximum(src, 0), cranes]
+    hooks[..., 2] = hook_z
+    hooks[src < 0] = np.broadcast_to(home, (T, k, 3))[src < 0]
+    cables = np.empty((T, k, 2, 3), dtype=np.float32)
+    cables[:, :, 0] = hooks
+    cables[:, :, 1] = hooks
+    top = hi[rows, comp, 2]
+    cables[:, :, 1, 2] = np.where(holding, top, hook_z)
+    return hooks.astype(np.float32), cables
+
+
+def event_text(env: MultiCraneEnv, etype: str, crane: int, comp: int) -> str:
+    what = env.scenario.components[comp].id if comp >= 0 else "-"
+    verbs = {
+        "CLAIMED": "claims",
+        "ARRIVED": "brings to its target",
+        "ASSEMBLED": "assembles",
+        "BLOCKED": "is blocked moving",
+        "LIFT_BLOCKED": "cannot lift",
+        "CLAIM_CONFLICT": "lost the claim of",
+        "ILLEGAL": "sent an illegal action for",
+    }
+    return f"crane_{crane} {verbs.get(etype, etype.lower())} {what}"
