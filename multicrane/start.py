@@ -1,4 +1,4 @@
-"""The generator: where each component starts an episode.
+"""The start of an episode: where each component lies at reset, drawn from the episode's rng.
 
 Called once per ``reset`` with the episode's ``np.random.Generator``; nothing else draws random
 numbers for the start. Order of draws: first the target of every pre-built component that may

@@ -1,7 +1,7 @@
-"""An episode collected for the 3D replay: per-step arrays of what is drawn, sent to rerun
-with one ``send_columns`` call per entity.
+"""One episode collected for the 3D replay as per-step arrays, sent with ``send_columns``.
 
-Collecting needs no rerun; only :meth:`EpisodeCollector.send` imports it.
+One call per entity sends a whole episode. Collecting needs no rerun; only
+:meth:`EpisodeCollector.send` imports it.
 """
 
 from __future__ import annotations

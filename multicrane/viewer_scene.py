@@ -1,5 +1,4 @@
-"""The fixed part of a 3D replay: the rerun import, state colours, the static site and the
-arrangement of the viewer's panels (blueprint).
+"""The fixed part of a 3D replay: rerun import, state colours, static site, panel blueprint.
 
 A cell ``(x, y, z)`` is drawn as the unit cube ``[x, x+1] x [y, y+1] x [z-1, z]``, so the
 ground is the plane ``z = 0``. rerun is imported lazily, inside the functions.
