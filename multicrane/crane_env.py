@@ -41,7 +41,7 @@ class MultiCraneEnv(ParallelEnv):
     **Automatic mode** (``auto=True``): the paper's process. Each idle crane is given the next
     component of the scenario's list order, its first move lifts it, and it is assembled on
     arrival; claim and assemble actions are masked out. With one crane this is exactly the
-    paper's single-agent process (``paper-benchmark.md`` section 5).
+    paper's single-agent process (``docs/paper-spec.md`` section 5).
 
     **Observation.** ``{"observation": float32 vector in [0, 1], "action_mask": int8 vector}``.
     The vector is the site as (X, Y, 9) height planes, a (C, 14) component table and a 9-value

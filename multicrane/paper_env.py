@@ -32,7 +32,7 @@ PAPER_CONFIGS = tuple(f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5))
 PAPER_ENV_VERSION = 0
 N_PAPER_CHANNELS = 6
 
-# Section 6's channels as observer planes (channel 5 is a mark, multiplied by k on output).
+# docs/paper-spec.md section 6's channels as observer planes (channel 5: a mark, times k).
 PAPER_PLANES = PlaneSpec(
     masks=(
         1 << ANY_TARGET,
@@ -62,7 +62,7 @@ def scenario_of(config: str) -> str:
 
 
 class PaperAssemblyEnv(gym.Env):
-    """The benchmark of Zhu et al. (Table I), as ``paper-benchmark.md`` specifies it.
+    """The benchmark of Zhu et al. (Table I), as ``docs/paper-spec.md`` specifies it.
 
     **Process.** One crane works on one component at a time; the agent only moves it. The
     current component comes from a cyclic pointer over the scenario's list order (beams
@@ -96,7 +96,7 @@ class PaperAssemblyEnv(gym.Env):
     all six would be, or during the pass-over step, all are allowed); when False they allow
     all six, so the default MDP stays the paper's. ``render_mode``: None or ``"ansi"``.
 
-    **Version history.** v0: the corrected environment of ``paper-benchmark.md`` section 7.
+    **Version history.** v0: the corrected environment of ``docs/paper-spec.md`` section 7.
     """
 
     metadata = {"render_modes": ["ansi"]}

@@ -1,7 +1,7 @@
 """The team reward: the paper's reward, generalised to several cranes.
 
 For one crane in automatic mode this is exactly the reward behind the paper's Table I
-(``paper-benchmark.md`` section 5). With ``N`` the assembled components after the step
+(``docs/paper-spec.md`` section 5). With ``N`` the assembled components after the step
 (pre-built included), ``k`` those assembled during this episode, and ``m`` a held component's
 successful moves:
 

@@ -1,4 +1,4 @@
-"""The single-agent benchmark mode (``PaperAssemblyEnv``) against ``paper-benchmark.md``.
+"""The single-agent benchmark mode (``PaperAssemblyEnv``) against ``docs/paper-spec.md``.
 
 Sections of that page are cited as "spec §n". Coordinates are (x, y, z) with z up; ``sim.cell``
 turns the simulator's linear cell indices into site cells. What is covered:

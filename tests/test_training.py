@@ -302,7 +302,7 @@ def test_double_dqn_equals_dqn_when_the_networks_agree():
 
 @pytest.mark.parametrize("config", ["E1S1", "E2S3", "E3S2", "E4S4"])
 def test_paper_hyperparameters(config):
-    """The defaults of ``paper-benchmark.md`` section 8."""
+    """The defaults of ``docs/paper-spec.md`` section 8."""
     dqn_gamma = 0.9 if config[:2] in ("E1", "E2") else 0.8
     for name in ("dqn", "double_dqn"):
         algo = PAPER_ALGORITHMS[name]

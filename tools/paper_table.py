@@ -17,7 +17,7 @@ It prints the mean return +- standard error over episodes, the success rate and 
 steps of each policy, the best entry of the paper's Table I for that configuration (with its
 algorithm) and the gap between that entry and our optimum (Table I - optimum; negative is
 below the optimum). Table I was produced by the paper's public code, which section 7 of
-``paper-benchmark.md`` corrects, so that gap is indicative only. E3S4's PPO entry is printed
+``docs/paper-spec.md`` corrects, so that gap is indicative only. E3S4's PPO entry is printed
 "140.18" in the paper; its minus sign was lost and it is read here as -140.18.
 
 ``--markdown`` prints a whole page (explanation, table, observations computed from the
@@ -335,7 +335,7 @@ def markdown_page(
         "E1S1 .. E4S4), beside the best entry of the paper's Table I.",
         "",
         "**These returns come from the corrected environment** (section 7 of "
-        "`paper-benchmark.md`; see [paper-differences.md](paper-differences.md)). Table I "
+        "[paper-spec.md](paper-spec.md) and [paper-differences.md](paper-differences.md)). Table I "
         "was produced by the paper's public code, whose episodes could be cut short, whose "
         "obstacles blocked nothing and whose E4S1/E4S3 episodes were mostly impossible to "
         "finish, so its numbers are not directly comparable with ours: the gap column says "

@@ -1,6 +1,6 @@
 """Table I's metric over a sweep's result files, and the markdown page that shows it.
 
-The metric (the same as the paper's protocol, ``paper-benchmark.md`` section 8): for each
+The metric (the same as the paper's protocol, ``docs/paper-spec.md`` section 8): for each
 seed, the *final return* is ``result["final"]["return_mean"]``, the mean return of the
 trained policy acting greedily (deterministic actions) over the final evaluation's
 ``final_episodes`` episodes (``eval_episodes`` when unset), on the reset seeds 1000000,
@@ -330,7 +330,7 @@ def markdown(
         "",
         f"- Budget: {sweep.budget()}; profile `{sweep.profile}`. Table I: "
         f"{PAPER_STEPS:,} steps, {PAPER_SEEDS} seeds, the paper's public code (the "
-        "uncorrected environment of `paper-benchmark.md` section 7), so its numbers are "
+        "uncorrected environment of `docs/paper-spec.md` section 7), so its numbers are "
         "beside ours for orientation, not for a like-for-like comparison.",
         f"- Runs: {finished} of {total} finished.",
     ]
@@ -362,7 +362,7 @@ def markdown(
     if "double_dqn" in sweep.algos:
         notes.append(
             'The paper\'s "DQN" column was a double DQN and its "DDQN" a dueling double DQN '
-            "(`paper-benchmark.md` section 7, item 10), so both stand beside our double DQN, "
+            "(`docs/paper-spec.md` section 7, item 10), so both stand beside our double DQN, "
             "the closest algorithm we have (ours has no dueling head)."
         )
     if "dqn" in sweep.algos:

@@ -2,7 +2,7 @@
 
 Table I (Zhu et al.) gives, per configuration, the mean return +- standard error over 15
 training seeds of four algorithms it calls "DQN", "DDQN", "A2C" and "PPO". The public code
-behind it ran other algorithms than those names say (``paper-benchmark.md`` section 7, item
+behind it ran other algorithms than those names say (``docs/paper-spec.md`` section 7, item
 10): its "DQN" was a double DQN (the library's default) and its "DDQN" a dueling double
 DQN. ``PAPER_COLUMN`` therefore puts each Table I column beside the closest algorithm of
 ours: both value-based columns beside our ``double_dqn``; our plain ``dqn`` has no
@@ -14,7 +14,7 @@ from __future__ import annotations
 ALGORITHMS = ("DQN", "DDQN", "A2C", "PPO")
 
 # Table I of the paper: (mean, standard error) per algorithm, in ALGORITHMS order. The
-# paper's "DQN" was a double DQN and its "DDQN" a dueling double DQN (spec section 7,
+# paper's "DQN" was a double DQN and its "DDQN" a dueling double DQN (docs/paper-spec.md
 # item 10); the names are the paper's.
 TABLE_I: dict[str, tuple[tuple[float, float], ...]] = {
     "E1S1": ((-5.16, 0.49), (-4.27, 0.42), (-42.57, 15.60), (-19.03, 7.34)),
@@ -28,7 +28,7 @@ TABLE_I: dict[str, tuple[tuple[float, float], ...]] = {
     "E3S1": ((-277.28, 10.29), (-409.16, 15.14), (-543.08, 11.76), (-204.94, 33.17)),
     "E3S2": ((-232.77, 12.97), (-319.96, 34.05), (-535.54, 17.38), (-183.85, 41.07)),
     "E3S3": ((-258.80, 8.06), (-373.12, 16.29), (-415.12, 28.28), (-111.22, 6.13)),
-    # PPO printed as "140.18": the minus sign was lost (spec section 7, item 9).
+    # PPO printed as "140.18": the minus sign was lost (docs/paper-spec.md section 7, item 9).
     "E3S4": ((-239.68, 10.29), (-362.18, 28.83), (-527.82, 16.68), (-140.18, 7.48)),
     "E4S1": ((-907.31, 25.98), (-1091.58, 17.01), (-1148.31, 13.42), (-466.27, 70.70)),
     "E4S2": ((-593.04, 28.46), (-978.52, 47.37), (-1160.99, 4.69), (-437.76, 89.00)),

@@ -5,7 +5,7 @@
     result = train(TrainConfig("e2s2", paper=False, n_cranes=2, algo="maskable_ppo"), "runs/y")
 
 - ``vec_env``: ``CraneVecEnv``, parameter sharing over (copy, crane) rows for SB3.
-- ``algorithms``: the algorithms and their defaults (the paper's section 8), double DQN.
+- ``algorithms``: the algorithms and defaults (``docs/paper-spec.md`` section 8), double DQN.
 - ``config``: ``TrainConfig``.  ``trainer``: ``train``, checkpoints and exact resume.
 """
 

@@ -1,6 +1,6 @@
 """The training algorithms and their default hyper-parameters.
 
-Single-agent benchmark mode: the paper's settings (``paper-benchmark.md`` section 8). DQN
+Single-agent benchmark mode: the paper's settings (``docs/paper-spec.md`` section 8). DQN
 and double DQN: MLP 64-64, Adam lr 5e-4, batch 64, replay 50,000, target update every 500
 gradient steps, one gradient step per env step, epsilon 1.0 -> 0.02 over the first 10 %,
 gamma 0.9 (Env1/2) or 0.8 (Env3/4). A2C: 16 envs x 5 steps, RMSprop lr 7e-4, gamma 0.9,
@@ -115,7 +115,7 @@ _PPO = dict(
     clip_range=0.2,
 )
 
-# Single-agent benchmark mode (the paper's section 8); DQN's gamma is set per environment.
+# Single-agent benchmark mode (docs/paper-spec.md section 8); DQN's gamma is per environment.
 PAPER_ALGORITHMS: dict[str, Algorithm] = {
     a.name: a
     for a in (
@@ -158,7 +158,7 @@ MULTI_ALGORITHMS: dict[str, Algorithm] = {
 
 
 def paper_gamma(config: str) -> float:
-    """DQN's discount: 0.9 in Env1/Env2, 0.8 in Env3/Env4 (section 8; A2C/PPO use 0.9)."""
+    """DQN's discount: 0.9 in Env1/Env2, 0.8 in Env3/Env4 (paper-spec section 8; A2C/PPO: 0.9)."""
     return 0.9 if config.upper()[:2] in ("E1", "E2") else 0.8
 
 

@@ -3,7 +3,7 @@
 ``CraneVecEnv`` runs ``n_envs`` copies of a ``MultiCraneEnv`` and gives SB3 one row per
 (copy, crane): parameter sharing, with one policy acting for every crane. It covers what
 SuperSuit's ``pettingzoo_env_to_vec_env_v1`` + ``concat_vec_envs_v1`` recipe lacks (see
-``stack-notes.md``): each copy gets its own reset seed from the run seed; a time-limit end
+``docs/training.md``): each copy gets its own reset seed from the run seed; a time-limit end
 is reported as truncation (``TimeLimit.truncated``) so PPO bootstraps it; ``action_masks()``
 reaches MaskablePPO; and ``info["episode"]`` feeds SB3's episode statistics. With
 ``shaping > 0`` the learner's reward gets the potential-based term of
