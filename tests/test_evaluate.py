@@ -1,5 +1,5 @@
 """Evaluating policies: ``policies.evaluation`` on hand-made episodes, policies by name
-(``policies.registry``), ``tools/evaluate.py`` and the main job ``tools/demo.py``."""
+(``policies.registry``), ``multicrane evaluate`` and the main job ``multicrane demo``."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from policies.registry import PolicyError, policy_factory
 
 pytest.importorskip("stable_baselines3")
 
+from multicrane.cli import main  # noqa: E402
 from multicrane.training import TrainConfig, train  # noqa: E402
-from tools import demo, evaluate  # noqa: E402
 
 
 def test_summary_of_hand_made_episodes():
@@ -72,9 +72,9 @@ def paper_run(tmp_path_factory):
 
 def test_evaluate_program_compares_a_trained_model_with_planners(paper_run, tmp_path, capsys):
     out = tmp_path / "eval.json"
-    code = evaluate.main(
-        ["--paper", "E1S1", "--policy", str(paper_run), "optimal", "greedy", "--episodes", "3",
-         "--json", str(out)]
+    code = main(
+        ["evaluate", "--paper", "E1S1", "--policy", str(paper_run), "optimal", "greedy",
+         "--episodes", "3", "--json", str(out)]
     )  # fmt: skip
     assert code == 0
     text = capsys.readouterr().out
@@ -89,15 +89,15 @@ def test_evaluate_program_compares_a_trained_model_with_planners(paper_run, tmp_
 
 
 def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
-    code = evaluate.main(["--scenario", "e1s1", "--cranes", "2", "--policy", str(paper_run)])
+    code = main(["evaluate", "--scenario", "e1s1", "--cranes", "2", "--policy", str(paper_run)])
     assert code == 2
     assert "single-agent benchmark mode" in capsys.readouterr().err
 
 
 def test_demo_trains_evaluates_and_records(tmp_path, capsys):
     pytest.importorskip("rerun")
-    code = demo.main(
-        ["--scenario", "e1s1", "--cranes", "2", "--steps", "512", "--episodes", "2",
+    code = main(
+        ["demo", "--scenario", "e1s1", "--cranes", "2", "--steps", "512", "--episodes", "2",
          "--out", str(tmp_path)]
     )  # fmt: skip
     assert code == 0
@@ -110,6 +110,6 @@ def test_demo_trains_evaluates_and_records(tmp_path, capsys):
     assert "replay:" in out
     # Again: the finished training is reused, not repeated.
     mtime = (run_dir / "model.zip").stat().st_mtime_ns
-    assert demo.main(["--scenario", "e1s1", "--cranes", "2", "--steps", "512",
+    assert main(["demo", "--scenario", "e1s1", "--cranes", "2", "--steps", "512",
                       "--episodes", "2", "--out", str(tmp_path)]) == 0  # fmt: skip
     assert (run_dir / "model.zip").stat().st_mtime_ns == mtime

@@ -8,7 +8,6 @@ large scenarios sooner with more cranes, and decide fast.
 from __future__ import annotations
 
 import itertools
-import sys
 from functools import cache
 from pathlib import Path
 
@@ -212,15 +211,12 @@ def test_metrics_definitions_and_aggregate():
 
 
 def test_compare_tool_writes_a_markdown_page(tmp_path):
-    sys.path.insert(0, str(ROOT / "tools"))
-    try:
-        import compare_planners
-    finally:
-        sys.path.remove(str(ROOT / "tools"))
+    from multicrane.cli import main
+
     out = tmp_path / "planners.md"
-    argv = ["--scenarios", "e1s1", "hall-4c", "--cranes", "1", "4", "--seeds", "1"]
-    argv += ["--random-seeds", "1", "--markdown", "--output", str(out)]
-    assert compare_planners.main(argv) == 0
+    argv = ["compare-planners", "--scenarios", "e1s1", "hall-4c", "--cranes", "1", "4"]
+    argv += ["--seeds", "1", "--random-seeds", "1", "--markdown", "--output", str(out)]
+    assert main(argv) == 0
     page = out.read_text()
     assert page.startswith("# Classical multi-crane planners")
     assert "| e1s1 | 1 |" in page and "| hall-4c | 4 |" in page

@@ -1,6 +1,6 @@
 """Training with stable-baselines3: every algorithm path, double DQN, reproducibility, exact
 resume, saving and loading, run directories, ``CraneVecEnv``, the plain SuperSuit recipe,
-configuration checks and the command line (``tools/train.py``), signals included.
+configuration checks and the command line (``multicrane train``), signals included.
 
 Budgets are tiny (hundreds of steps): these tests check the machinery, not learning.
 """
@@ -854,13 +854,9 @@ def test_config_round_trip(tmp_path):
 
 @pytest.fixture
 def cli():
-    sys.path.insert(0, str(ROOT))
-    try:
-        from tools.train import main
+    from multicrane.cli import main
 
-        yield main
-    finally:
-        sys.path.remove(str(ROOT))
+    yield lambda argv: main(["train", *argv])
 
 
 def test_cli_trains_and_reports(cli, tmp_path, capsys):
@@ -900,7 +896,7 @@ def test_cli_rejects_bad_settings(cli, tmp_path, capsys):
 
 def test_cli_sigint_checkpoints_and_resumes(tmp_path):
     out = tmp_path / "run"
-    cmd = [sys.executable, str(ROOT / "tools" / "train.py"), "--paper", "E1S1", "--algo", "ppo"]
+    cmd = [sys.executable, "-m", "multicrane", "train", "--paper", "E1S1", "--algo", "ppo"]
     cmd += ["--steps", "5000", "--envs", "2", "--eval-episodes", "2", "--set", "n_epochs=1"]
     cmd += ["--no-progress", "--checkpoint-every", "0", "--out", str(out)]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}

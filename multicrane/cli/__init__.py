@@ -30,6 +30,7 @@ COMMANDS = (
     "benchmark",
     "paper_table",
     "compare_planners",
+    "demo",
 )
 
 

@@ -18,10 +18,15 @@ EXTRAS = {
 }
 
 
-def missing_extra(exc: ImportError) -> str | None:
-    """The extra that would install the module ``exc`` failed to import, if it is one of ours."""
-    name = (getattr(exc, "name", None) or "").split(".")[0]
-    return EXTRAS.get(name)
+def missing_extra(exc: BaseException | None) -> str | None:
+    """The extra that would install the module ``exc`` (or the import error it was raised
+    from) failed to import, if it is one of ours."""
+    while exc is not None:
+        name = (getattr(exc, "name", None) or "").split(".")[0]
+        if name in EXTRAS:
+            return EXTRAS[name]
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def needs_extra(command: str, extra: str) -> int:

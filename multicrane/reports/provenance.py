@@ -1,19 +1,17 @@
-"""How and where a results page was made: the command that produced it and the machine."""
+"""Where and how a results page was made: the command that made it and the machine it ran on."""
 
 from __future__ import annotations
 
 import os
 import platform
 import shlex
-import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 
-def command_line(argv: list[str] | None = None, program: str = "multicrane") -> str:
-    """The command that produced a page: ``program`` followed by its arguments (``argv``, or
-    this process's own arguments when None)."""
-    args = sys.argv[1:] if argv is None else list(argv)
-    return shlex.join([program, *args])
+def command_line(words: Sequence[object], program: str = "multicrane") -> str:
+    """The command as a user types it: ``program`` then ``words``, quoted for a shell."""
+    return shlex.join([program, *(str(w) for w in words)])
 
 
 def machine() -> str:
