@@ -39,7 +39,6 @@ import re
 import statistics
 import sys
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,20 +46,13 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import multicrane  # noqa: E402
+from multicrane.rollout import run_episode, summarise  # noqa: E402
 from multicrane.types import EventType  # noqa: E402
-from policies.greedy import GreedyPolicy  # noqa: E402
-from policies.metrics import aggregate, run_with_metrics  # noqa: E402
-from policies.prioritized import PrioritizedPlanner  # noqa: E402
-from policies.random_policy import RandomPolicy  # noqa: E402
+from policies import make  # noqa: E402
 from tools.report import command_line, machine  # noqa: E402
 
-RANDOM_STREAM = 1
 PLANNERS = ("greedy", "prioritized")
-POLICIES: dict[str, Callable] = {
-    "greedy": lambda env, seed: GreedyPolicy(env, seed=seed),
-    "prioritized": lambda env, seed: PrioritizedPlanner(env, seed=seed),
-    "random": lambda env, seed: RandomPolicy(seed=[seed, RANDOM_STREAM]),
-}
+POLICIES = ("greedy", "prioritized", "random")
 PAPER = re.compile(r"^e[1-4]s[1-4]$")
 LARGE = ("frame2-3c", "hall-4c")
 STAT_KEYS = ("searches", "failed", "expansions", "claims", "replans", "repairs", "fallbacks")
@@ -90,15 +82,15 @@ def run_cell(scenario: str, n: int, policy: str, seeds: range) -> Cell:
     results = []
     stats = dict.fromkeys(STAT_KEYS, 0)
     for seed in seeds:
-        p = POLICIES[policy](env, seed)
-        results.append(run_with_metrics(env, p, seed=seed))
+        p = make(policy, env, seed)
+        results.append(run_episode(env, p, seed=seed))
         for k, v in getattr(p, "stats", {}).items():
             stats[k] = stats.get(k, 0) + v
-    return Cell(results, aggregate(results), time.perf_counter() - start, stats)
+    return Cell(results, summarise(results), time.perf_counter() - start, stats)
 
 
 def run_optimal(scenario: str, seeds: range) -> Optimal:
-    from policies.optimal import plan
+    from multicrane.optimal import plan
 
     start = time.perf_counter()
     steps, comparable, success = [], [], []

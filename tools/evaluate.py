@@ -23,9 +23,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import multicrane  # noqa: E402
+from multicrane.rollout import evaluate, optimal_returns  # noqa: E402
 from multicrane.training.seeding import evaluation_seeds  # noqa: E402
-from policies.evaluation import evaluate_multi, evaluate_paper, optimal_returns  # noqa: E402
-from policies.registry import PolicyError, policy_factory  # noqa: E402
+from policies import PolicyError, factory  # noqa: E402
 from tools.report import add_environment_args  # noqa: E402
 
 
@@ -55,20 +55,14 @@ def evaluate_all(args: argparse.Namespace) -> list[dict]:
         seeds = evaluation_seeds(args.episodes)
     else:
         seeds = list(range(args.seed, args.seed + args.episodes))
-    factories = [policy_factory(spec, paper) for spec in args.policy]  # fail before running
+    factories = [factory(spec, paper) for spec in args.policy]  # fail before running
     best = optimal_returns(env, seeds) if paper else None
     rows = []
-    for label, make in factories:
+    for make in factories:
         start = time.perf_counter()
-        if paper:
-            episodes, summary = evaluate_paper(env, make, seeds, optimal=False)
-            from policies.evaluation import summarise
-
-            summary = summarise(episodes, best)
-        else:
-            episodes, summary = evaluate_multi(env, make, seeds)
+        episodes, summary = evaluate(env, make, seeds, optimal=best)
         summary["seconds"] = round(time.perf_counter() - start, 3)
-        rows.append({"policy": label, "summary": summary, "episodes": episodes})
+        rows.append({"policy": make.label, "summary": summary, "episodes": episodes})
     return rows
 
 
@@ -80,8 +74,9 @@ def format_table(rows: list[dict], paper: bool) -> str:
     for row in rows:
         s = row["summary"]
         finish = "-" if s["finish_steps_mean"] is None else f"{s['finish_steps_mean']:.1f}"
+        err = "-" if s["return_sem"] is None else f"{s['return_sem']:.2f}"
         line = (
-            f"{row['policy'][:44]:<44} {s['return_mean']:>10.2f} ± {s['return_sem']:<6.2f}"
+            f"{row['policy'][:44]:<44} {s['return_mean']:>10.2f} ± {err:<6}"
             f"{s['success_rate']:>8.0%} {finish:>7} {s['steps_mean']:>7.1f}"
         )
         if paper:

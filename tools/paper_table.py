@@ -35,19 +35,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from multicrane.benchmark.reference import ALGORITHMS, SIGN_FIXED, TABLE_I  # noqa: E402
+from multicrane.optimal import plan  # noqa: E402
 from multicrane.paper_env import PAPER_CONFIGS, PaperAssemblyEnv  # noqa: E402
-from policies.optimal import plan  # noqa: E402
-from policies.paper_greedy import PaperGreedyPolicy  # noqa: E402
-from policies.random_policy import RandomPolicy  # noqa: E402
+from multicrane.rollout import run_episode  # noqa: E402
+from policies import make  # noqa: E402
 from tools.report import command_line, machine  # noqa: E402
 
-RANDOM_STREAM = 1  # the random policy's generator is seeded with (episode seed, RANDOM_STREAM)
 SAME = 1e-9  # returns closer than this are equal
 
 Episode = tuple[float, bool, int]  # return, success, steps
@@ -105,38 +102,27 @@ class Row:
         return sum(abs(g - o) < SAME for g, o in pairs)
 
 
-def play(env: PaperAssemblyEnv, seed: int, act: Callable[[np.ndarray], int]) -> Episode:
-    """One episode from ``reset(seed=seed)``: (return, success, steps)."""
-    obs, _ = env.reset(seed=seed)
-    total, steps = 0.0, 0
-    while True:
-        obs, reward, terminated, truncated, _ = env.step(act(obs))
-        total += reward
-        steps += 1
-        if terminated or truncated:
-            return total, bool(terminated), steps
-
-
 def optimal_episode(env: PaperAssemblyEnv, seed: int) -> Episode:
     env.reset(seed=seed)
     p = plan(env=env)
     return p.episode_return, p.success, p.steps
 
 
-def greedy_episode(env: PaperAssemblyEnv, seed: int) -> Episode:
-    return play(env, seed, PaperGreedyPolicy(env))
+def played(name: str) -> Callable[[PaperAssemblyEnv, int], Episode]:
+    """One episode of ``policies.make(name)`` (random: uniform over the six moves, no mask,
+    from its own generator seeded with (seed, 1))."""
 
+    def episode(env: PaperAssemblyEnv, seed: int) -> Episode:
+        m = run_episode(env, make(name, env, seed), seed=seed)
+        return m["return"], m["success"], m["steps"]
 
-def random_episode(env: PaperAssemblyEnv, seed: int) -> Episode:
-    policy = RandomPolicy(seed=[seed, RANDOM_STREAM])
-    mask = np.ones(env.action_space.n, dtype=np.int8)  # the paper mode: all six actions
-    return play(env, seed, lambda _obs: policy.act(mask))
+    return episode
 
 
 POLICIES: dict[str, Callable[[PaperAssemblyEnv, int], Episode]] = {
     "optimal": optimal_episode,
-    "greedy": greedy_episode,
-    "random": random_episode,
+    "greedy": played("greedy"),
+    "random": played("random"),
 }
 
 

@@ -25,33 +25,22 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import multicrane  # noqa: E402
+import policies  # noqa: E402
 from multicrane.record import EpisodeRecord, RecordError, record_episode  # noqa: E402
-from policies.greedy import GreedyPolicy  # noqa: E402
-from policies.prioritized import PrioritizedPlanner  # noqa: E402
-from policies.random_policy import RandomPolicy  # noqa: E402
 
-POLICIES = {
-    "greedy": lambda env, seed: GreedyPolicy(env, seed=seed),
-    "prioritized": lambda env, seed: PrioritizedPlanner(env, seed=seed),
-    "random": lambda env, seed: RandomPolicy(seed=seed),
-}
 PLAY_STATES = ["paused", "playing", "following"]
 
 
 def make_policy(spec: str, env, seed: int):
-    """A named policy, or a trained model's run directory (``tools/train.py --out``)."""
-    if spec in POLICIES:
-        return POLICIES[spec](env, seed)
-    from policies.registry import policy_factory
-
-    return policy_factory(spec, paper=False)[1](env, seed)
+    """A named policy, or a trained model's run directory (``policies.make``)."""
+    return policies.make(spec, env, seed)
 
 
 def _episode_args(p: argparse.ArgumentParser, policy: str = "prioritized") -> None:
     p.add_argument("--scenario", default="hall-4c", help="shipped name or path to a .toml file")
     p.add_argument("--cranes", type=int, default=None, help="default: the scenario's")
     p.add_argument("--policy", default=policy,
-                   help=f"{', '.join(sorted(POLICIES))}, or a training run directory")  # fmt: skip
+                   help=f"{', '.join(policies.names(False))}, or a training run")  # fmt: skip
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--auto", action="store_true", help="automatic mode (random/greedy only)")
     p.add_argument("--max-steps", type=int, default=None, help="default: the scenario's limit")

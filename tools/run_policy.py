@@ -18,17 +18,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import multicrane  # noqa: E402
-from policies.greedy import GreedyPolicy, run_episode  # noqa: E402
-from policies.prioritized import PrioritizedPlanner  # noqa: E402
-from policies.random_policy import RandomPolicy  # noqa: E402
-
-# A policy's own random stream is seeded with [seed, 1]: the environment's generator is
-# default_rng(seed), and the same seed would make the policy repeat the layout's draws.
-POLICIES = {
-    "greedy": lambda env, seed: GreedyPolicy(env, seed=[seed, 1]),
-    "prioritized": lambda env, seed: PrioritizedPlanner(env, seed=seed),
-    "random": lambda env, seed: RandomPolicy(seed=[seed, 1]),
-}
+import policies  # noqa: E402
+from multicrane.rollout import run_episode  # noqa: E402
+from multicrane.stats import sem  # noqa: E402
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -40,17 +32,16 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--cranes", type=int, default=None, help="number of cranes (default: scenario's)"
     )
     p.add_argument(
-        "--policy", nargs="+", default=["prioritized", "greedy", "random"], choices=sorted(POLICIES)
+        "--policy",
+        nargs="+",
+        default=["prioritized", "greedy", "random"],
+        choices=policies.names(False),
     )
     p.add_argument("--episodes", type=int, default=5)
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--auto", action="store_true", help="automatic claiming and assembly (paper)")
     p.add_argument("--render", action="store_true", help="print the site after the last episode")
     return p.parse_args(argv)
-
-
-def sem(values: list[float]) -> float:
-    return statistics.stdev(values) / len(values) ** 0.5 if len(values) > 1 else 0.0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,14 +65,16 @@ def main(argv: list[str] | None = None) -> int:
         start = time.perf_counter()
         for i in range(args.episodes):
             seed = args.seed + i
-            results.append(run_episode(env, POLICIES[name](env, seed), seed=seed))
+            results.append(run_episode(env, policies.make(name, env, seed), seed=seed))
         elapsed = time.perf_counter() - start
         returns = [r["return"] for r in results]
+        err = sem(returns)
+        err_text = "-" if err is None else f"{err:.2f}"
         print(
-            f"{name:<8} {statistics.mean(returns):>10.2f} ± {sem(returns):<6.2f}"
+            f"{name:<8} {statistics.mean(returns):>10.2f} ± {err_text:<6}"
             f"{sum(r['success'] for r in results) / len(results):>8.0%}"
             f"{statistics.mean(r['steps'] for r in results):>9.1f}"
-            f"{statistics.mean(r['blocked'] for r in results):>9.1f}"
+            f"{statistics.mean(r['blocked_moves'] for r in results):>9.1f}"
             f"{elapsed:>7.1f}s"
         )
     if args.render:
