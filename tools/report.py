@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import os
-import platform
 import shlex
 import sys
 from pathlib import Path
+
+from multicrane.reports.provenance import machine  # noqa: F401  (re-exported)
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -30,22 +30,3 @@ def command_line(script: str, argv: list[str] | None) -> str:
     script_path = Path(script).resolve().relative_to(ROOT)
     args = sys.argv[1:] if argv is None else argv
     return shlex.join([str(python), str(script_path), *args])
-
-
-def machine() -> str:
-    """Cores, CPU model, system, Python, and the load when the run ended."""
-    model = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    load = ""
-    if hasattr(os, "getloadavg"):
-        load = f", load average {os.getloadavg()[0]:.1f} at the end of the run (shared machine)"
-    return (
-        f"{os.cpu_count()}-core {model} CPU, {platform.system()}, "
-        f"{platform.python_implementation()} {platform.python_version()}{load}"
-    )

@@ -167,7 +167,7 @@ def command(action: str, args: argparse.Namespace, *flags: tuple[str, str]) -> s
     words: list[object] = ["benchmark", action, "--profile", args.profile]
     for flag, name in (*SELECTION, *flags):
         value = getattr(args, name, None)
-        if value is None or value is False:
+        if value is None or value is False or (flag, value) == ("--backend", "local"):
             continue
         words.append(flag)
         if isinstance(value, list):
