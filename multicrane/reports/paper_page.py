@@ -6,7 +6,7 @@ from __future__ import annotations
 import datetime
 
 from multicrane.benchmark.reference import ALGORITHMS, SIGN_FIXED, TABLE_I
-from multicrane.reports.paper_table import SAME, Row, paper_entry, pm, seed_range, timing
+from multicrane.reports.paper_table import SAME, Row, cells, seed_range, timing
 from multicrane.reports.provenance import machine
 
 
@@ -164,14 +164,7 @@ def markdown_page(rows: list[Row], seeds: range, wall: float, command: str) -> s
         "| Table I best (algorithm) | gap to optimum |",
         "|---|" + "---:|" * 9 + "---|---:|",
     ]
-    for r in rows:
-        o, g, x = r.optimal, r.greedy, r.random
-        out.append(
-            f"| {r.config} | {pm(o.mean, o.sem)} | {o.success:.0%} | {o.steps:.1f} "
-            f"| {pm(g.mean, g.sem)} | {g.success:.0%} | {g.steps:.1f} "
-            f"| {pm(x.mean, x.sem)} | {x.success:.0%} | {x.steps:.1f} "
-            f"| {paper_entry(r)} | {r.gap:.2f} |"
-        )
+    out += ["| " + " | ".join(cells(r)) + " |" for r in rows]
     out.append("")
     if any(r.config in SIGN_FIXED for r in rows):
         out += ['\\* printed as "140.18" in the paper; the minus sign was lost.', ""]

@@ -131,6 +131,15 @@ def timing(rows: list[Row], wall: float) -> str:
     return f"Total wall time {wall:.1f} s ({parts})."
 
 
+def cells(r: Row) -> list[str]:
+    """One configuration's columns: config, then return, success and steps of optimal, greedy
+    and random, then the best Table I entry and the gap."""
+    out = [r.config]
+    for st in (r.optimal, r.greedy, r.random):
+        out += [pm(st.mean, st.sem), f"{st.success:.0%}", f"{st.steps:.1f}"]
+    return [*out, paper_entry(r), f"{r.gap:.2f}"]
+
+
 def text_table(rows: list[Row], seeds: range, wall: float) -> str:
     """The rows as a plain-text table."""
     head = (
@@ -145,12 +154,10 @@ def text_table(rows: list[Row], seeds: range, wall: float) -> str:
         "-" * len(head),
     ]
     for r in rows:
-        o, g, x = r.optimal, r.greedy, r.random
+        c = cells(r)
         lines.append(
-            f"{r.config:<6} {pm(o.mean, o.sem):>16} {o.success:>5.0%} {o.steps:>6.1f} | "
-            f"{pm(g.mean, g.sem):>16} {g.success:>5.0%} {g.steps:>6.1f} | "
-            f"{pm(x.mean, x.sem):>18} {x.success:>5.0%} {x.steps:>6.1f} | "
-            f"{paper_entry(r):<28} {r.gap:>8.2f}"
+            f"{c[0]:<6} {c[1]:>16} {c[2]:>5} {c[3]:>6} | {c[4]:>16} {c[5]:>5} {c[6]:>6} | "
+            f"{c[7]:>18} {c[8]:>5} {c[9]:>6} | {c[10]:<28} {c[11]:>8}"
         )
     if any(r.config in SIGN_FIXED for r in rows):
         lines.append('* printed as "140.18" in the paper; the minus sign was lost')
