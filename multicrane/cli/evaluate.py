@@ -36,21 +36,18 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def evaluation_seeds(n: int, first: int | None) -> list[int]:
-    """``first`` .. ``first + n - 1``; by default the seeds training evaluates on."""
-    if first is None:
-        first = 1_000_000  # multicrane.training.seeding.evaluation_seeds, without torch
-    return list(range(first, first + n))
-
-
 def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
     """One row per policy: its label, summary and episodes (all on the same seeds)."""
     import policies
     from multicrane.rollout import evaluate, optimal_returns
+    from multicrane.training.seeding import evaluation_seeds
 
     paper = args.paper is not None
     env = make_env(args.paper, args.scenario, args.cranes, args.auto)
-    seeds = evaluation_seeds(args.episodes, args.seed)
+    if args.seed is None:
+        seeds = evaluation_seeds(args.episodes)  # the seeds training evaluates on
+    else:
+        seeds = list(range(args.seed, args.seed + args.episodes))
     factories = [policies.factory(spec, paper=paper) for spec in args.policy]  # fail early
     best = optimal_returns(env, seeds) if paper else None
     rows = []
