@@ -1,5 +1,7 @@
-"""The ``multicrane`` command: every subcommand on a tiny input, and the base install (no torch,
-no stable-baselines3) running ``--help`` and ``plan``."""
+"""The ``multicrane`` command: every subcommand on a tiny input, and the base install.
+
+The base install (no torch, no stable-baselines3) runs ``--help`` and ``plan``.
+"""
 
 from __future__ import annotations
 

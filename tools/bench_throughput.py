@@ -1,5 +1,8 @@
-"""Developer front end of ``multicrane bench`` (environment steps per second), kept so that
-``python tools/bench_throughput.py --scenario hall-4c --cranes 4`` still measures the hot path."""
+"""Developer front end of ``multicrane bench``: environment steps per second.
+
+Kept so that ``python tools/bench_throughput.py --scenario hall-4c --cranes 4`` still measures
+the hot path as before.
+"""
 
 import sys
 

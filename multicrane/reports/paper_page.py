@@ -1,5 +1,7 @@
-"""The markdown page of the paper's reference returns (``multicrane paper-table --markdown``):
-how it was made, the table, and observations read off the numbers."""
+"""The markdown page of the paper's reference returns: provenance, table and observations.
+
+``multicrane paper-table --markdown`` writes it (``docs/paper-results.md``).
+"""
 
 from __future__ import annotations
 

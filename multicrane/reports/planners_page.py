@@ -1,5 +1,7 @@
-"""The planner comparison as a report: observations read off the numbers, the markdown page
-and the plain-text report (``multicrane compare-planners``)."""
+"""The planner comparison as a report: observations, the markdown page, the plain-text report.
+
+``multicrane compare-planners`` prints or writes it (``docs/planners.md``).
+"""
 
 from __future__ import annotations
 
