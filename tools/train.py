@@ -108,9 +108,10 @@ def print_result(result: dict, run_dir: Path) -> None:
         f"{cfg['scenario']} {result['algorithm']} seed {cfg['seed']}: {result['steps']} steps "
         f"in {result['train_seconds']:.0f} s ({result['steps_per_second']:.0f} steps/s)"
     )
+    err = "-" if f["return_sem"] is None else f"{f['return_sem']:.2f}"  # None for one episode
     line = (
         f"final evaluation ({f['episodes']} episodes, greedy actions): return "
-        f"{f['return_mean']:.2f} ± {f['return_sem']:.2f}, success {f['success_rate']:.0%}, "
+        f"{f['return_mean']:.2f} ± {err}, success {f['success_rate']:.0%}, "
         f"steps {f['steps_mean']:.1f}"
     )
     if f.get("optimal_mean") is not None:
