@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from multicrane.crane_env import MultiCraneEnv
+from multicrane.rollout import run_episode
 from multicrane.scenario import Scenario
 from multicrane.scenario_catalog import scenario_names, scenarios_dir
 from multicrane.scenario_loader import load_scenario
@@ -223,30 +224,22 @@ def record_episode(
         max_steps=int(env.step_limit),
         policy=policy_name,
     )
-    observations, _ = env.reset(seed=int(seed))
-    for listener in listeners:
-        listener.on_reset(env)
-    agents = env.possible_agents
-    first = agents[0]
-    total, success = 0.0, False
-    while env.agents:
-        action_dict = policy(observations)
-        joint = [int(action_dict[a]) for a in agents]
-        observations, rewards, terms, truncs, infos = env.step(
-            dict(zip(agents, joint, strict=True))
-        )
-        r = float(rewards[first])
-        total += r
+    def on_reset(env: MultiCraneEnv) -> None:
+        for listener in listeners:
+            listener.on_reset(env)
+
+    def on_step(env: MultiCraneEnv, joint: list[int], reward: float, infos: dict) -> None:
         events = _events_of(env, infos)
         rec.actions.append(joint)
         rec.events.append(events)
         for listener in listeners:
-            listener.on_step(env, joint, r, events)
-        success = bool(terms[first])
+            listener.on_step(env, joint, reward, events)
+
+    m = run_episode(env, policy, int(seed), on_reset=on_reset, on_step=on_step)
     rec.metrics = {
-        "return": total,
-        "steps": len(rec.actions),
-        "success": success,
+        "return": m["return"],
+        "steps": m["steps"],
+        "success": m["success"],
         "final_status": [int(x) for x in env.sim.status],
     }
     return rec

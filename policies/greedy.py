@@ -107,24 +107,3 @@ def _crow_distance(sim: Simulator, comp: int) -> int:
         best = d if best is None else min(best, d)
     return best if best is not None else 10**6
 
-
-def run_episode(env, policy, seed: int | None = None) -> dict:
-    """Play one episode; returns the team return, steps, success and event counts."""
-    observations, _ = env.reset(seed=seed)
-    total, steps, blocked = 0.0, 0, 0
-    agent = env.possible_agents[0]
-    while env.agents:
-        observations, rewards, terms, truncs, infos = env.step(policy(observations))
-        total += rewards[agent]
-        steps += 1
-        blocked += sum(
-            1 for a in env.possible_agents for e in infos[a]["events"] if e.type.name == "BLOCKED"
-        )
-        if terms[agent] or truncs[agent]:
-            return {
-                "return": total,
-                "steps": steps,
-                "success": bool(terms[agent]),
-                "blocked": blocked,
-            }
-    raise RuntimeError("episode ended without a termination or truncation")

@@ -1,31 +1,58 @@
-"""Policies by name, for the command-line programs: a built-in planner or a trained model.
+"""Policies by name: the one table from a name to a policy, with the one seeding rule.
 
-``policy_factory(spec, paper)`` returns ``make_policy(env, seed)``; ``spec`` is ``optimal``
-(paper mode only), ``greedy``, ``prioritized`` (multi-agent only), ``random``, or the path of
-a training run directory (``tools/train.py``'s ``--out``) or of its ``model.zip``.
-A policy's own random stream is seeded with ``[seed, 1]``: the environment's generator is
-``default_rng(seed)``, and the same seed would make the policy repeat the layout's draws.
+    import policies
+    policy = policies.make("prioritized", env, seed=3)   # for the episode reset(seed=3) starts
+    make_policy = policies.factory("runs/E2S2-ppo-s0")   # make_policy(env, seed), for evaluate()
+
+Names (``names(paper)`` lists the built-in ones of a mode): ``random`` and ``greedy`` (both
+modes), ``prioritized`` (multi-agent mode only), ``optimal`` (the exact planner, single-agent
+mode only), or the path of a training run directory or of its ``model.zip`` (needs the
+``train`` extra; the model acts greedily). The mode is the environment's: a PettingZoo
+``ParallelEnv`` is the multi-agent mode, anything else the single-agent benchmark mode.
+``options`` go to the policy's constructor (e.g. ``rank="nearest"`` for ``prioritized``,
+``patience`` for ``greedy``, ``deterministic`` for a trained model).
+
+Seeding rule. A policy is made for one episode, the one ``env.reset(seed=seed)`` starts.
+Whatever it draws at random comes from its own generator ``np.random.default_rng([seed, 1])``
+(``policy_seed(seed)``), never from ``default_rng(seed)``: that is the environment's
+generator, and a policy seeded with it would repeat the layout's draws. ``seed=None`` gives
+an unseeded stream. Planners and trained models get the same stream (the prioritized and
+exact planners and greedy model actions draw nothing), so an episode is a function of the
+name, the options and the seed.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-import numpy as np
+from multicrane.rollout import is_multi_agent
+from policies.random_policy import RandomMoves, RandomPolicy
 
-from policies.random_policy import RandomPolicy
-
+POLICY_STREAM = 1
 PAPER_NAMES = ("optimal", "greedy", "random")
 MULTI_NAMES = ("prioritized", "greedy", "random")
+NAMES = ("greedy", "optimal", "prioritized", "random")
 
 
 class PolicyError(ValueError):
     """A policy that cannot be used here; the message says why."""
 
 
-class LazyOptimal:
-    """The exact planner's episode, planned at the first call (right after the reset)."""
+def names(paper: bool) -> tuple[str, ...]:
+    """The built-in policy names of a mode (``paper``: the single-agent benchmark mode)."""
+    return PAPER_NAMES if paper else MULTI_NAMES
+
+
+def policy_seed(seed: int | None) -> list[int] | None:
+    """The seed of a policy's own generator for the episode ``reset(seed=seed)`` starts."""
+    return None if seed is None else [int(seed), POLICY_STREAM]
+
+
+class ExactPlan:
+    """The exact planner's episode (``multicrane.optimal``), planned at the first call
+    (right after the reset); then its actions one by one."""
 
     def __init__(self, env):
         self.env = env
@@ -33,72 +60,117 @@ class LazyOptimal:
 
     def __call__(self, observation=None) -> int:
         if self.actions is None:
-            from policies.optimal import plan
+            from multicrane.optimal import plan
 
             self.actions = list(plan(env=self.env.unwrapped).actions)
         return self.actions.pop(0) if self.actions else 0
 
 
-def _uniform(seed: int) -> Callable:
-    rng = RandomPolicy(seed=[seed, 1])
-    mask = np.ones(6, dtype=np.int8)
-    return lambda obs: rng.act(mask)
-
-
-def policy_factory(spec: str, paper: bool) -> tuple[str, Callable]:
-    """(label, make_policy(env, seed)) for ``spec``; see the module doc."""
+def _builtin(name: str, paper: bool) -> Callable[..., Any]:
+    """``build(env, seed, **options)`` for a built-in name of a mode."""
     if paper:
-        if spec == "optimal":
-            return spec, lambda env, seed: LazyOptimal(env)
-        if spec == "greedy":
+        if name == "optimal":
+            return lambda env, seed, **o: ExactPlan(env, **o)
+        if name == "greedy":
             from policies.paper_greedy import PaperGreedyPolicy
 
-            return spec, lambda env, seed: PaperGreedyPolicy(env)
-        if spec == "random":
-            return spec, lambda env, seed: _uniform(seed)
-    else:
-        if spec == "prioritized":
-            from policies.prioritized import PrioritizedPlanner
+            return lambda env, seed, **o: PaperGreedyPolicy(env, **o)
+        return lambda env, seed, **o: RandomMoves(seed=policy_seed(seed), **o)
+    if name == "prioritized":
+        from policies.prioritized import PrioritizedPlanner
 
-            return spec, lambda env, seed: PrioritizedPlanner(env, seed=seed)
-        if spec == "greedy":
-            from policies.greedy import GreedyPolicy
+        return lambda env, seed, **o: PrioritizedPlanner(env, seed=policy_seed(seed), **o)
+    if name == "greedy":
+        from policies.greedy import GreedyPolicy
 
-            return spec, lambda env, seed: GreedyPolicy(env, seed=[seed, 1])
-        if spec == "random":
-            return spec, lambda env, seed: RandomPolicy(seed=[seed, 1])
-    path = Path(spec)
-    if not path.exists():
-        names = PAPER_NAMES if paper else MULTI_NAMES
-        raise PolicyError(
-            f"policy {spec!r}: not one of {', '.join(names)} and no such run directory or model"
-        )
-    return model_factory(path, paper)
+        return lambda env, seed, **o: GreedyPolicy(env, seed=policy_seed(seed), **o)
+    return lambda env, seed, **o: RandomPolicy(seed=policy_seed(seed), **o)
 
 
-def model_factory(path: Path, paper: bool) -> tuple[str, Callable]:
-    """A trained model (run directory or its ``model.zip``) as a policy factory."""
-    from policies.learned import PaperModelPolicy, SharedModelPolicy, load_run
+class Factory:
+    """``make_policy(env, seed)`` for one policy name; ``label`` names it in tables."""
 
-    run_dir = path.parent if path.suffix == ".zip" else path
-    try:
-        model, cfg = load_run(run_dir)
-    except (FileNotFoundError, ValueError) as exc:
-        raise PolicyError(f"policy {str(path)!r}: {exc}") from None
-    if cfg.paper != paper:
-        trained = "the single-agent benchmark mode" if cfg.paper else "the multi-agent mode"
-        raise PolicyError(f"policy {str(path)!r} was trained in {trained} ({cfg.scenario})")
-    label = f"{cfg.algo} ({run_dir.name})"
-    wrapper = PaperModelPolicy if paper else SharedModelPolicy
+    def __init__(self, name: str, paper: bool | None = None, **options):
+        self.name = str(name)
+        self.options = options
+        self.model = None
+        self.config = None
+        self.label = self.name
+        if self.name not in NAMES:
+            self._load_model()
+        if paper is not None:
+            self.check(paper)
 
-    def make(env, seed):
+    def _load_model(self) -> None:
+        path = Path(self.name)
+        if not path.exists():
+            raise PolicyError(
+                f"policy {self.name!r}: not one of {', '.join(NAMES)} and no such run "
+                "directory or model"
+            )
+        try:
+            from multicrane.training import require_extra
+
+            require_extra()
+            from multicrane.training.model_policy import load_run
+        except ImportError as exc:
+            raise PolicyError(
+                f"policy {self.name!r} is a trained model: it needs the 'train' extra: "
+                "pip install 'multicrane[train]'"
+            ) from exc
+        run_dir = path.parent if path.suffix == ".zip" else path
+        try:
+            self.model, self.config = load_run(run_dir)
+        except (FileNotFoundError, ValueError) as exc:
+            raise PolicyError(f"policy {self.name!r}: {exc}") from None
+        self.label = f"{self.config.algo} ({run_dir.name})"
+
+    def check(self, paper: bool) -> None:
+        """Raise ``PolicyError`` unless the policy can act in that mode."""
+        if self.model is not None:
+            if self.config.paper != paper:
+                trained = (
+                    "the single-agent benchmark mode" if self.config.paper
+                    else "the multi-agent mode"
+                )  # fmt: skip
+                raise PolicyError(
+                    f"policy {self.name!r} was trained in {trained} ({self.config.scenario})"
+                )
+        elif self.name not in names(paper):
+            mode = "single-agent benchmark" if paper else "multi-agent"
+            raise PolicyError(
+                f"policy {self.name!r} does not act in the {mode} mode; "
+                f"there: {', '.join(names(paper))}"
+            )
+
+    def __call__(self, env, seed: int | None = None):
+        paper = not is_multi_agent(env)
+        self.check(paper)
+        if self.model is None:
+            return _builtin(self.name, paper)(env, seed, **self.options)
+        return self._model_policy(env, paper)
+
+    def _model_policy(self, env, paper: bool):
+        from multicrane.training.model_policy import model_policy
+
         space = env.observation_space if paper else env.observation_space(env.possible_agents[0])
         shape = tuple((space if paper else space["observation"]).shape)
-        if tuple(model.observation_space.shape) != shape:
+        trained = tuple(self.model.observation_space.shape)
+        if trained != shape:
             raise PolicyError(
-                f"policy {str(path)!r} was trained on {cfg.scenario} with observations of shape "
-                f"{tuple(model.observation_space.shape)}; this environment gives {shape}"
+                f"policy {self.name!r} was trained on {self.config.scenario} with observations "
+                f"of shape {trained}; this environment gives {shape}"
             )
-        return wrapper(model, env)
+        return model_policy(self.model, env, paper, **self.options)
 
-    return label, make
+
+def factory(name: str, paper: bool | None = None, **options) -> Factory:
+    """``make_policy(env, seed)`` for ``name`` (a trained model is loaded once, here); with
+    ``paper`` the name is checked against that mode now, not at the first episode."""
+    return Factory(name, paper, **options)
+
+
+def make(name: str, env, seed: int | None = None, **options):
+    """The policy ``name`` for the episode ``env.reset(seed=seed)`` starts (see the module
+    doc for the names and the seeding rule)."""
+    return Factory(name, **options)(env, seed)

@@ -19,30 +19,33 @@ from pathlib import Path
 
 import pytest
 
-from multicrane.benchmark import aggregate
-from multicrane.benchmark.backends import LocalBackend, Outcome, SerialBackend, Task
+from multicrane.benchmark import aggregate, page
+from multicrane.benchmark.local import LocalBackend
+from multicrane.benchmark.manifest import sweep_lock
+from multicrane.benchmark.profiles import (
+    PROFILES,
+    SweepError,
+    make_sweep,
+    parse_configs,
+    parse_seeds,
+)
 from multicrane.benchmark.reference import TABLE_I
-from multicrane.benchmark.sweep import (
+from multicrane.benchmark.runstate import (
     CONFLICT,
     CORRUPT,
     DONE,
     FAILED,
     PARTIAL,
     PENDING,
-    PROFILES,
-    SweepError,
     inspect_run,
-    make_sweep,
-    parse_configs,
-    parse_seeds,
     prepare_run,
-    run_sweep,
     store_result,
-    sweep_lock,
     sweep_states,
 )
-
-ROOT = Path(__file__).resolve().parent.parent
+from multicrane.benchmark.serial import SerialBackend
+from multicrane.benchmark.sweep import run_sweep
+from multicrane.benchmark.tasks import Outcome, Task
+from multicrane.stats import mean_sem
 
 
 def _have(module: str) -> bool:
@@ -156,13 +159,13 @@ def small_sweep(tmp_path: Path, **kwargs):
 
 
 def test_mean_sem_by_hand():
-    assert aggregate.mean_sem([]) == (None, None)
-    assert aggregate.mean_sem([-4.0]) == (-4.0, None)
-    mean, sem = aggregate.mean_sem([-4.0, -6.0, -5.0])
+    assert mean_sem([]) == (None, None)
+    assert mean_sem([-4.0]) == (-4.0, None)
+    mean, sem = mean_sem([-4.0, -6.0, -5.0])
     assert mean == pytest.approx(-5.0)
     # sample std (n-1) of -4, -6, -5 is 1; over sqrt(3)
     assert sem == pytest.approx(1 / math.sqrt(3))
-    mean, sem = aggregate.mean_sem([1.0, 3.0])
+    mean, sem = mean_sem([1.0, 3.0])
     assert (mean, sem) == (pytest.approx(2.0), pytest.approx(math.sqrt(2) / math.sqrt(2)))
 
 
@@ -191,7 +194,7 @@ def test_single_seed_has_no_standard_error():
     train = {"total_steps": 10, "eval_episodes": 4, "algo": "dqn"}
     cell = aggregate.make_cell("E2S1", "dqn", {0: fake_result(train, ret=-7.5)})
     assert cell.mean == -7.5 and cell.sem is None
-    assert aggregate._ours(cell, best=False) == "-7.50 ± n/a"
+    assert page._ours(cell, best=False) == "-7.50 ± n/a"
 
 
 def test_missing_runs_are_reported_not_averaged():
@@ -199,10 +202,10 @@ def test_missing_runs_are_reported_not_averaged():
     cell = aggregate.make_cell("E1S2", "a2c", {0: fake_result(train, ret=-3.0), 1: None})
     assert cell.n == 1 and cell.missing == (1,)
     assert cell.mean == -3.0
-    assert aggregate._ours(cell, best=False) == "-3.00 ± n/a (1/2 seeds)"
+    assert page._ours(cell, best=False) == "-3.00 ± n/a (1/2 seeds)"
     empty = aggregate.make_cell("E1S2", "a2c", {0: None, 1: None})
     assert empty.mean is None and empty.gap is None and empty.success_rate is None
-    assert aggregate._ours(empty, best=False) == "missing"
+    assert page._ours(empty, best=False) == "missing"
 
 
 def test_markdown_report_from_result_files(tmp_path):
@@ -219,7 +222,7 @@ def test_markdown_report_from_result_files(tmp_path):
     results, problems = aggregate.collect(sweep)
     assert problems == []
     cells = aggregate.make_cells(sweep, results)
-    text = aggregate.markdown(sweep, cells, {"machine": "test box", "date": "today"})
+    text = page.markdown(sweep, cells, {"machine": "test box", "date": "today"})
     assert "30,000 environment steps per run, 3 seeds (0-2)" in text
     assert "- Runs: 11 of 12 finished." in text
     assert "E3S4/ppo seed 2" in text
@@ -437,11 +440,10 @@ def test_local_pool_survives_a_dying_worker(tmp_path):
 
 
 def cli_main():
-    sys.path.insert(0, str(ROOT))
-    try:
-        from tools.benchmark import main
-    finally:
-        sys.path.remove(str(ROOT))
+    """``multicrane benchmark`` through its subcommand module: a parser, ``register``, the
+    parsed action's ``func``."""
+    from multicrane.cli.benchmark import main
+
     return main
 
 
@@ -551,6 +553,24 @@ def test_status_and_dry_run_read_files_only(tmp_path, capsys):
     assert "dry run: nothing started" in capsys.readouterr().out
 
 
+def test_profiles_and_a_missing_extra(tmp_path, capsys, monkeypatch):
+    main = cli_main()
+    assert main(["profiles"]) == 0
+    assert [line.split(":")[0] for line in capsys.readouterr().out.splitlines()][::3] == [
+        "smoke",
+        "quick",
+        "paper",
+    ]
+    sweep = small_sweep(tmp_path)
+    sweep.out.mkdir(parents=True)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # as if not installed
+    assert main(["report", "--profile", "smoke", "--out", str(sweep.out)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "multicrane benchmark report needs the 'bench' extra: "
+        "pip install 'multicrane[bench]' (or --no-plots)"
+    )
+
+
 # -- Ray ---------------------------------------------------------------------------------------
 
 
@@ -571,7 +591,7 @@ def local_ray(monkeypatch):
 @pytest.mark.ray
 @pytest.mark.skipif(not HAVE_TRAINING, reason="needs the train extra (stable-baselines3)")
 def test_ray_backend_runs_a_tiny_sweep(tmp_path, local_ray):
-    from multicrane.benchmark.backends import RayBackend
+    from multicrane.benchmark.ray_backend import RayBackend
 
     sweep = make_sweep("smoke", configs=["E1S1"], algos=["a2c", "ppo"], out=tmp_path / "bench")
     result = run_sweep(sweep, RayBackend(log=quiet), log=quiet)

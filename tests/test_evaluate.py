@@ -1,5 +1,5 @@
-"""Evaluating policies: ``policies.evaluation`` on hand-made episodes, policies by name
-(``policies.registry``), ``tools/evaluate.py`` and the main job ``tools/demo.py``."""
+"""Evaluating policies: ``multicrane.rollout`` on hand-made episodes, policies by name
+(``policies.registry``), ``multicrane evaluate`` and the main job ``multicrane demo``."""
 
 from __future__ import annotations
 
@@ -9,13 +9,14 @@ import math
 import pytest
 
 import multicrane
-from policies.evaluation import evaluate_paper, summarise
-from policies.registry import PolicyError, policy_factory
+from multicrane.rollout import evaluate as evaluate_policy
+from multicrane.rollout import optimal_returns, summarise
+from policies import PolicyError, factory
 
 pytest.importorskip("stable_baselines3")
 
+from multicrane.cli import main  # noqa: E402
 from multicrane.training import TrainConfig, train  # noqa: E402
-from tools import demo, evaluate  # noqa: E402
 
 
 def test_summary_of_hand_made_episodes():
@@ -34,7 +35,7 @@ def test_summary_of_hand_made_episodes():
     assert s["gap"] == pytest.approx(3.0)
     assert s["gap_pct"] == pytest.approx(150.0)
     one = summarise(episodes[2:])
-    assert one["return_sem"] == 0.0 and one["finish_steps_mean"] is None
+    assert one["return_sem"] is None and one["finish_steps_mean"] is None  # s.e. of one: None
     with pytest.raises(ValueError):
         summarise([])
 
@@ -43,20 +44,21 @@ def test_summary_of_hand_made_episodes():
 def test_optimal_has_no_gap_and_random_a_large_one(config):
     env = multicrane.PaperAssemblyEnv(config)
     seeds = [0, 1, 2]
-    _, best = evaluate_paper(env, policy_factory("optimal", paper=True)[1], seeds)
+    best_returns = optimal_returns(env, seeds)
+    _, best = evaluate_policy(env, factory("optimal", paper=True), seeds, optimal=best_returns)
     assert best["gap"] == pytest.approx(0.0, abs=1e-9)
     assert best["success_rate"] == 1.0
-    _, rnd = evaluate_paper(env, policy_factory("random", paper=True)[1], seeds)
+    _, rnd = evaluate_policy(env, factory("random", paper=True), seeds, optimal=best_returns)
     assert rnd["gap"] > 50 and rnd["success_rate"] == 0.0
 
 
 def test_policy_names_are_checked():
     with pytest.raises(PolicyError, match="prioritized"):
-        policy_factory("prioritized", paper=True)  # a multi-agent planner
+        factory("prioritized", paper=True)  # a multi-agent planner
     with pytest.raises(PolicyError, match="optimal"):
-        policy_factory("optimal", paper=False)
+        factory("optimal", paper=False)
     with pytest.raises(PolicyError, match="no such run directory"):
-        policy_factory("no/such/run", paper=False)
+        factory("no/such/run", paper=False)
 
 
 @pytest.fixture(scope="module")
@@ -72,9 +74,9 @@ def paper_run(tmp_path_factory):
 
 def test_evaluate_program_compares_a_trained_model_with_planners(paper_run, tmp_path, capsys):
     out = tmp_path / "eval.json"
-    code = evaluate.main(
-        ["--paper", "E1S1", "--policy", str(paper_run), "optimal", "greedy", "--episodes", "3",
-         "--json", str(out)]
+    code = main(
+        ["evaluate", "--paper", "E1S1", "--policy", str(paper_run), "optimal", "greedy",
+         "--episodes", "3", "--json", str(out)]
     )  # fmt: skip
     assert code == 0
     text = capsys.readouterr().out
@@ -89,15 +91,15 @@ def test_evaluate_program_compares_a_trained_model_with_planners(paper_run, tmp_
 
 
 def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
-    code = evaluate.main(["--scenario", "e1s1", "--cranes", "2", "--policy", str(paper_run)])
+    code = main(["evaluate", "--scenario", "e1s1", "--cranes", "2", "--policy", str(paper_run)])
     assert code == 2
     assert "single-agent benchmark mode" in capsys.readouterr().err
 
 
 def test_demo_trains_evaluates_and_records(tmp_path, capsys):
     pytest.importorskip("rerun")
-    code = demo.main(
-        ["--scenario", "e1s1", "--cranes", "2", "--steps", "512", "--episodes", "2",
+    code = main(
+        ["demo", "--scenario", "e1s1", "--cranes", "2", "--steps", "512", "--episodes", "2",
          "--out", str(tmp_path)]
     )  # fmt: skip
     assert code == 0
@@ -110,6 +112,6 @@ def test_demo_trains_evaluates_and_records(tmp_path, capsys):
     assert "replay:" in out
     # Again: the finished training is reused, not repeated.
     mtime = (run_dir / "model.zip").stat().st_mtime_ns
-    assert demo.main(["--scenario", "e1s1", "--cranes", "2", "--steps", "512",
+    assert main(["demo", "--scenario", "e1s1", "--cranes", "2", "--steps", "512",
                       "--episodes", "2", "--out", str(tmp_path)]) == 0  # fmt: skip
     assert (run_dir / "model.zip").stat().st_mtime_ns == mtime

@@ -37,12 +37,12 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import multicrane
 from multicrane.crane_env import MultiCraneEnv
+from multicrane.optimal import plan
 from multicrane.paper_env import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
 from multicrane.scenario import Box, Scenario
 from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY
 from multicrane.types import EventType, Kind, Status
-from policies.optimal import plan
 from policies.paper_greedy import PaperGreedyPolicy
 from policies.random_policy import RandomPolicy
 

@@ -1,4 +1,4 @@
-"""Classical multi-crane planners (policies.prioritized, policies.metrics, the comparison tool).
+"""Classical multi-crane planners (policies.prioritized, multicrane.rollout, the comparison tool).
 
 The prioritized planner must complete every shipped scenario with 1-4 cranes within the step
 limit without a single blocked or failed action, whatever order the cranes act in, finish the
@@ -8,7 +8,6 @@ large scenarios sooner with more cranes, and decide fast.
 from __future__ import annotations
 
 import itertools
-import sys
 from functools import cache
 from pathlib import Path
 
@@ -16,10 +15,10 @@ import pytest
 from conftest import SCENARIOS
 
 import multicrane
+from multicrane.rollout import evaluate, run_episode, summarise
 from multicrane.scenario_loader import parse_scenario
 from multicrane.types import EventType
 from policies.greedy import GreedyPolicy
-from policies.metrics import aggregate, evaluate, run_with_metrics
 from policies.prioritized import PrioritizedPlanner
 from policies.random_policy import RandomPolicy
 
@@ -35,7 +34,7 @@ def prioritized_episode(scenario: str, n: int, seed: int) -> tuple[dict, dict]:
     """Metrics and planner counters of one prioritized episode (shared between tests)."""
     env = multicrane.parallel_env(scenario, n_cranes=n)
     planner = PrioritizedPlanner(env)
-    return run_with_metrics(env, planner, seed=seed), dict(planner.stats)
+    return run_episode(env, planner, seed=seed), dict(planner.stats)
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
@@ -175,13 +174,13 @@ def test_planner_reuse_recall_and_mode_checks():
         PrioritizedPlanner(multicrane.parallel_env("e3s2", auto=True))
     with pytest.raises(ValueError, match="rank"):
         PrioritizedPlanner(env, rank="best")
-    nearest = run_with_metrics(env, PrioritizedPlanner(env, rank="nearest"), seed=0)
+    nearest = run_episode(env, PrioritizedPlanner(env, rank="nearest"), seed=0)
     assert nearest["success"] and nearest["blocked_moves"] == 0
 
 
-def test_metrics_definitions_and_aggregate():
+def test_metrics_definitions_and_summarise():
     env = multicrane.parallel_env("e3s2", n_cranes=3)
-    m = run_with_metrics(env, GreedyPolicy(env, seed=0), seed=0)
+    m = run_episode(env, GreedyPolicy(env, seed=0), seed=0)
     assert m["success"] and m["makespan"] == m["steps"] > 0
     assert m["crane_steps"] + m["idle_crane_steps"] == 3 * m["steps"]
     assert 0 < m["utilisation"] <= 1 and m["idle_crane_steps"] > 0
@@ -192,35 +191,33 @@ def test_metrics_definitions_and_aggregate():
 
     # One crane that never idles between components: busy every step but the gaps.
     env1 = multicrane.parallel_env("e1s1", n_cranes=1)
-    m1 = run_with_metrics(env1, PrioritizedPlanner(env1), seed=0)
+    m1 = run_episode(env1, PrioritizedPlanner(env1), seed=0)
     assert m1["crane_steps"] == m1["steps"]  # it claims the next one right after assembling
 
     # Random runs to the step limit: no makespan.
-    r = run_with_metrics(env1, RandomPolicy(seed=0), seed=0)
+    r = run_episode(env1, RandomPolicy(seed=0), seed=0)
     assert not r["success"] and r["makespan"] is None and r["steps"] == env1.step_limit
-    agg = aggregate([m1, r])
+    agg = summarise([m1, r])
     assert agg["episodes"] == 2 and agg["success_rate"] == 0.5
-    assert agg["makespan_mean"] == m1["makespan"] and agg["makespan_sem"] == 0.0
+    assert agg["makespan_mean"] == m1["makespan"] and agg["makespan_sem"] is None
     assert agg["steps_mean"] == (m1["steps"] + r["steps"]) / 2
-    none = aggregate([r])
+    none = summarise([r])
     assert none["success_rate"] == 0 and none["makespan_mean"] is None
     with pytest.raises(ValueError):
-        aggregate([])
+        summarise([])
 
-    results, summary = evaluate("e2s1", 2, lambda env, seed: PrioritizedPlanner(env), range(2))
+    env2 = multicrane.parallel_env("e2s1", n_cranes=2)
+    results, summary = evaluate(env2, lambda env, seed: PrioritizedPlanner(env), range(2))
     assert [x["seed"] for x in results] == [0, 1] and summary["success_rate"] == 1.0
 
 
 def test_compare_tool_writes_a_markdown_page(tmp_path):
-    sys.path.insert(0, str(ROOT / "tools"))
-    try:
-        import compare_planners
-    finally:
-        sys.path.remove(str(ROOT / "tools"))
+    from multicrane.cli import main
+
     out = tmp_path / "planners.md"
-    argv = ["--scenarios", "e1s1", "hall-4c", "--cranes", "1", "4", "--seeds", "1"]
-    argv += ["--random-seeds", "1", "--markdown", "--output", str(out)]
-    assert compare_planners.main(argv) == 0
+    argv = ["compare-planners", "--scenarios", "e1s1", "hall-4c", "--cranes", "1", "4"]
+    argv += ["--seeds", "1", "--random-seeds", "1", "--markdown", "--output", str(out)]
+    assert main(argv) == 0
     page = out.read_text()
     assert page.startswith("# Classical multi-crane planners")
     assert "| e1s1 | 1 |" in page and "| hall-4c | 4 |" in page

@@ -1,6 +1,6 @@
 """Training with stable-baselines3: every algorithm path, double DQN, reproducibility, exact
 resume, saving and loading, run directories, ``CraneVecEnv``, the plain SuperSuit recipe,
-configuration checks and the command line (``tools/train.py``), signals included.
+configuration checks and the command line (``multicrane train``), signals included.
 
 Budgets are tiny (hundreds of steps): these tests check the machinery, not learning.
 """
@@ -43,10 +43,14 @@ from multicrane.training.algorithms import (  # noqa: E402
     hyperparameters,
     make_model,
 )
+from multicrane.training.model_policy import (  # noqa: E402
+    PaperModelPolicy,
+    SharedModelPolicy,
+    load_run,
+)
 from multicrane.training.seeding import copy_seeds  # noqa: E402
-from multicrane.training.trainer import Run, load_run_model  # noqa: E402
+from multicrane.training.trainer import Run  # noqa: E402
 from multicrane.training.vec_env import SeededDummyVecEnv  # noqa: E402
-from policies.learned import PaperModelPolicy, SharedModelPolicy, load_run  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -75,7 +79,7 @@ def outcomes(episodes: list[dict]) -> list[tuple]:
 
 
 def final_model(run_dir: Path):
-    model, _ = load_run_model(Path(run_dir))
+    model, _ = load_run(Path(run_dir))
     return model
 
 
@@ -162,7 +166,7 @@ def test_paper_algorithm_smoke(algo, tmp_path):
     stored = json.loads((tmp_path / "run" / "result.json").read_text())
     assert stored == json.loads(json.dumps(result))
     assert stored["config"] == cfg.to_dict()
-    model, loaded_cfg = load_run_model(tmp_path / "run")
+    model, loaded_cfg = load_run(tmp_path / "run")
     assert type(model) is PAPER_ALGORITHMS[algo].cls
     assert model.num_timesteps == result["steps"]
     assert loaded_cfg == cfg
@@ -185,7 +189,7 @@ def test_multi_agent_algorithm_smoke(algo, tmp_path):
     assert "makespan_mean" in final and "blocked_moves_mean" in final
     assert (tmp_path / "run" / "model.zip").is_file()
     assert (tmp_path / "run" / "result.json").is_file()
-    model, _ = load_run_model(tmp_path / "run")
+    model, _ = load_run(tmp_path / "run")
     assert type(model) is MULTI_ALGORITHMS[algo].cls
 
 
@@ -489,7 +493,7 @@ def test_loaded_model_predicts_like_the_trained_one(algo, tmp_path):
     run = Run(cfg, tmp_path / "run", log=quiet)
     assert run.execute() is not None
     trained = run.model
-    loaded, loaded_cfg = load_run_model(tmp_path / "run")
+    loaded, loaded_cfg = load_run(tmp_path / "run")
     assert loaded_cfg == cfg
     obs = _paper_observations()
     a_trained, _ = trained.predict(obs, deterministic=True)
@@ -854,13 +858,9 @@ def test_config_round_trip(tmp_path):
 
 @pytest.fixture
 def cli():
-    sys.path.insert(0, str(ROOT))
-    try:
-        from tools.train import main
+    from multicrane.cli import main
 
-        yield main
-    finally:
-        sys.path.remove(str(ROOT))
+    yield lambda argv: main(["train", *argv])
 
 
 def test_cli_trains_and_reports(cli, tmp_path, capsys):
@@ -900,7 +900,7 @@ def test_cli_rejects_bad_settings(cli, tmp_path, capsys):
 
 def test_cli_sigint_checkpoints_and_resumes(tmp_path):
     out = tmp_path / "run"
-    cmd = [sys.executable, str(ROOT / "tools" / "train.py"), "--paper", "E1S1", "--algo", "ppo"]
+    cmd = [sys.executable, "-m", "multicrane", "train", "--paper", "E1S1", "--algo", "ppo"]
     cmd += ["--steps", "5000", "--envs", "2", "--eval-episodes", "2", "--set", "n_epochs=1"]
     cmd += ["--no-progress", "--checkpoint-every", "0", "--out", str(out)]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}

@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from multicrane.benchmark.aggregate import LABELS, Results, mean_sem
-from multicrane.benchmark.sweep import Sweep
+from multicrane.benchmark.aggregate import LABELS, Results
+from multicrane.benchmark.profiles import Sweep
+from multicrane.stats import mean_sem
 
 COLORS = {
     "dqn": "tab:blue",

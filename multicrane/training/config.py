@@ -7,8 +7,10 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from multicrane.files import write_atomic
 from multicrane.paper_env import PAPER_CONFIGS
 
+CHECKPOINT = "checkpoint"  # the run directory's checkpoint folder (see training.trainer)
 DEFAULT_SHAPING = 1.0  # multi-agent mode; see multicrane.training.shaping
 
 
@@ -141,11 +143,3 @@ class TrainConfig:
         """``key: mine != other`` for each differing field."""
         a, b = self.to_dict(), other.to_dict()
         return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Write through a temporary file and a rename, so a reader never sees half a file."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)

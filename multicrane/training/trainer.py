@@ -32,12 +32,14 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.monitor import Monitor
 
+from multicrane.files import write_json_atomic
+from multicrane.rollout import evaluate, optimal_returns
 from multicrane.training.algorithms import Algorithm, algorithm, hyperparameters, make_model
-from multicrane.training.config import ConfigError, TrainConfig, write_atomic
+from multicrane.training.config import CHECKPOINT, ConfigError, TrainConfig
+from multicrane.training.model_policy import model_policy
 from multicrane.training.seeding import evaluation_seeds
 from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
 
-CHECKPOINT = "checkpoint"
 RESULT = "result.json"
 PACKAGES = (
     "multicrane",
@@ -81,16 +83,12 @@ def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
 
 
 def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, optimal: bool):
-    """Greedy episodes of the model on the evaluation seeds: (episodes, summary)."""
-    from policies.evaluation import evaluate_multi, evaluate_paper
-    from policies.learned import PaperModelPolicy, SharedModelPolicy
-
+    """Greedy episodes of the model on the evaluation seeds: (episodes, summary), with the
+    gap to the exact planner's returns on the same seeds when ``optimal`` (paper mode)."""
     seeds = evaluation_seeds(episodes)
-    if cfg.paper:
-        env = paper_env(cfg, algo)
-        return evaluate_paper(env, lambda e, s: PaperModelPolicy(model, e), seeds, optimal)
-    env = multi_env(cfg)
-    return evaluate_multi(env, lambda e, s: SharedModelPolicy(model, e), seeds)
+    env = paper_env(cfg, algo) if cfg.paper else multi_env(cfg)
+    best = optimal_returns(env, seeds) if optimal and cfg.paper else None
+    return evaluate(env, lambda e, s: model_policy(model, e, cfg.paper), seeds, optimal=best)
 
 
 # -- checkpoints -------------------------------------------------------------------------------
@@ -377,7 +375,7 @@ class Run:
             "versions": versions(),
             "python": platform.python_version(),
         }
-        write_atomic(self.dir / RESULT, json.dumps(result, indent=1) + "\n")
+        write_json_atomic(self.dir / RESULT, result)
         shutil.rmtree(self.dir / CHECKPOINT, ignore_errors=True)
         self.venv.close()
         return result
@@ -394,17 +392,6 @@ def train(
     """Train ``cfg`` in ``run_dir`` (resuming what is there); the result dict (also in
     ``result.json``), or None when interrupted or stopped at ``stop_at`` steps."""
     return Run(cfg, Path(run_dir), log=log).execute(progress_bar=progress_bar, stop_at=stop_at)
-
-
-def load_run_model(run_dir: Path, which: str = "final"):
-    """(model, config) of a run directory; ``which`` is ``"final"`` or ``"checkpoint"``."""
-    run_dir = Path(run_dir)
-    cfg = TrainConfig.load(run_dir / "config.json")
-    algo = algorithm(cfg.algo, cfg.paper)
-    path = run_dir / ("model.zip" if which == "final" else f"{CHECKPOINT}/model.zip")
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no {which} model in this run directory")
-    return algo.cls.load(path, device="cpu"), cfg
 
 
 def _train_return(model) -> float | None:

@@ -1,11 +1,13 @@
-"""Trained stable-baselines3 models as policies (needs the ``train`` extra).
+"""Trained stable-baselines3 models as policies, and loading them from a run directory.
 
-    from policies.learned import load_run
-    model, config = load_run("runs/e2s2-maskable_ppo-s0")     # a directory tools/train.py wrote
+    from multicrane.training.model_policy import load_run
+    model, config = load_run("runs/e2s2-maskable_ppo-s0")     # a directory ``train`` wrote
     policy = PaperModelPolicy(model, env)   # single-agent mode: policy(obs) -> action
     policy = SharedModelPolicy(model, env)  # multi-agent mode: policy(observations) -> actions
 
 Both act greedily (``deterministic=True``); a masked model gets the environment's masks.
+``policies.make`` plugs these into the policy registry (a run directory or ``model.zip`` as a
+policy name).
 """
 
 from __future__ import annotations
@@ -13,6 +15,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from multicrane.training.algorithms import algorithm
+from multicrane.training.config import CHECKPOINT, TrainConfig
 
 
 def _is_masked(model) -> bool:
@@ -58,9 +63,19 @@ class SharedModelPolicy:
         return {a: int(x) for a, x in zip(agents, actions, strict=True)}
 
 
-def load_run(path: str | Path, which: str = "final"):
-    """The model and ``TrainConfig`` of a training run directory (``which``: ``"final"``, or
-    ``"checkpoint"`` for the latest checkpoint of an unfinished run)."""
-    from multicrane.training.trainer import load_run_model
+def model_policy(model, env, paper: bool, deterministic: bool = True):
+    """The wrapper of ``model`` for ``env``'s mode (``paper``: the single-agent mode)."""
+    cls = PaperModelPolicy if paper else SharedModelPolicy
+    return cls(model, env, deterministic=deterministic)
 
-    return load_run_model(Path(path), which)
+
+def load_run(path: str | Path, which: str = "final"):
+    """(model, ``TrainConfig``) of a training run directory; ``which`` is ``"final"`` (its
+    ``model.zip``), or ``"checkpoint"`` for the latest checkpoint of an unfinished run."""
+    run_dir = Path(path)
+    cfg = TrainConfig.load(run_dir / "config.json")
+    algo = algorithm(cfg.algo, cfg.paper)
+    model_path = run_dir / ("model.zip" if which == "final" else f"{CHECKPOINT}/model.zip")
+    if not model_path.exists():
+        raise FileNotFoundError(f"{model_path}: no {which} model in this run directory")
+    return algo.cls.load(model_path, device="cpu"), cfg

@@ -1,43 +1,35 @@
-"""Train a policy: the paper's single-agent algorithms, or parameter-sharing PPO for cranes.
-
-    python tools/train.py --paper E2S2 --algo dqn --steps 200000 --seed 0
-    python tools/train.py --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
-    python tools/train.py --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
-
-The run lives in ``--out`` (default ``runs/<name>``): ``config.json``, ``checkpoint/``
-(every ``--checkpoint-every`` steps and on Ctrl-C), ``tb/`` (``tensorboard --logdir runs``),
-then ``model.zip`` and ``result.json``. Running the same command again resumes an
-interrupted run exactly where it stopped (or reports a finished one). Ctrl-C once: stop at
-the next update with a checkpoint; twice: stop at once (back to the last checkpoint).
-Prints the final evaluation: greedy actions on ``--eval-episodes`` fixed seeds, with the gap
-to the exact planner's return in paper mode.
-"""
+"""``multicrane train``: train a policy (paper algorithms, or parameter-sharing PPO for cranes)."""
 
 from __future__ import annotations
 
 import argparse
 import ast
 import os
-import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from multicrane.cli import progress
+from multicrane.cli.common import add_environment_args, error, formatter
 
-from tools.report import add_environment_args  # noqa: E402
+DESCRIPTION = """Train a policy: the paper's single-agent algorithms, or parameter-sharing PPO
+for cranes (needs the 'train' extra).
+
+    multicrane train --paper E2S2 --algo dqn --steps 200000 --seed 0
+    multicrane train --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
+    multicrane train --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
+
+The run lives in --out (default runs/<name>): config.json, checkpoint/ (every
+--checkpoint-every steps and on Ctrl-C), tb/ (tensorboard --logdir runs), then model.zip and
+result.json. Running the same command again resumes an interrupted run exactly where it
+stopped (or reports a finished one). Ctrl-C once: stop at the next update with a checkpoint;
+twice: stop at once (back to the last checkpoint). Prints the final evaluation: greedy
+actions on --eval-episodes fixed seeds, with the gap to the exact planner's return in paper
+mode.
+"""
 
 
-def parse_value(text: str):
-    """``--set`` values: Python literals (numbers, booleans, lists, dicts), else strings."""
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
-        return text
-
-
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+def register(sub) -> None:
+    p = sub.add_parser("train", help="train a policy (needs the 'train' extra)",
+                       description=DESCRIPTION, **formatter())  # fmt: skip
     add_environment_args(p)
     p.add_argument(
         "--algo",
@@ -48,30 +40,30 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--steps", type=int, default=100_000, help="budget in SB3 timesteps")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--envs", type=int, default=None, help="environment copies")
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="override a hyper-parameter (repeatable)",
-    )
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a hyper-parameter (repeatable)")  # fmt: skip
     p.add_argument("--eval-every", type=int, default=0, help="steps between curve evaluations")
     p.add_argument("--eval-episodes", type=int, default=20)
     p.add_argument("--checkpoint-every", type=int, default=50_000)
     p.add_argument("--mask-blocked-moves", choices=("on", "off"), default=None)
-    p.add_argument(
-        "--shaping",
-        type=float,
-        default=None,
-        help="multi-agent: weight of the potential-based shaping term (0: off)",
-    )
+    p.add_argument("--shaping", type=float, default=None,
+                   help="multi-agent: weight of the potential-based shaping term (0: off)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     p.add_argument("--out", type=Path, default=None, help="run directory")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    return p.parse_args(argv)
+    p.set_defaults(func=run)
+
+
+def parse_value(text: str):
+    """``--set`` values: Python literals (numbers, booleans, lists, dicts), else strings."""
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text
 
 
 def build_config(args: argparse.Namespace):
+    """The ``TrainConfig`` the options describe."""
     from multicrane.training import TrainConfig
 
     overrides = {}
@@ -108,9 +100,10 @@ def print_result(result: dict, run_dir: Path) -> None:
         f"{cfg['scenario']} {result['algorithm']} seed {cfg['seed']}: {result['steps']} steps "
         f"in {result['train_seconds']:.0f} s ({result['steps_per_second']:.0f} steps/s)"
     )
+    sem = "-" if f["return_sem"] is None else f"{f['return_sem']:.2f}"
     line = (
         f"final evaluation ({f['episodes']} episodes, greedy actions): return "
-        f"{f['return_mean']:.2f} ± {f['return_sem']:.2f}, success {f['success_rate']:.0%}, "
+        f"{f['return_mean']:.2f} ± {sem}, success {f['success_rate']:.0%}, "
         f"steps {f['steps_mean']:.1f}"
     )
     if f.get("optimal_mean") is not None:
@@ -119,8 +112,7 @@ def print_result(result: dict, run_dir: Path) -> None:
     print(f"model: {run_dir / 'model.zip'}  result: {run_dir / 'result.json'}")
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
+def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", str(args.threads))
     from multicrane import ScenarioError
     from multicrane.training import ConfigError, train
@@ -128,16 +120,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         cfg = build_config(args)
         run_dir = args.out or Path("runs") / cfg.name
-        result = train(cfg, run_dir, progress_bar=not args.no_progress)
+        bar = not args.no_progress and progress.enabled()
+        result = train(cfg, run_dir, progress_bar=bar)
     except (ConfigError, ScenarioError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+        return error(exc)
     if result is None:
         print(f"interrupted: run the same command again to resume ({run_dir})")
         return 130
     print_result(result, run_dir)
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,7 +12,7 @@ never pass through the pose of another target the component could fill, since it
 arrive there. The return of every branch is summed by the environment's own reward function
 on a simulator, so the plan replays through the environment to exactly its return.
 
-    from policies.optimal import plan
+    from multicrane.optimal import plan
     p = plan("E2S2", seed=0)
     p.episode_return, p.steps, p.actions
 """

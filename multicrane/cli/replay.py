@@ -1,17 +1,4 @@
-"""3D replays of episodes with rerun (needs the ``replay`` extra: rerun-sdk 0.41).
-
-    python tools/replay.py live --scenario hall-4c --policy prioritized --spawn
-    python tools/replay.py live --scenario hall-4c --connect rerun+http://127.0.0.1:9876/proxy
-    python tools/replay.py record --scenario hall-4c --cranes 4 --policy prioritized \\
-        --seed 0 --rrd hall.rrd --record hall.json.gz
-    python tools/replay.py replay hall.json.gz --rrd again.rrd      # or --spawn / --connect
-    python tools/replay.py bench --scenario hall-4c --policy random --steps 1000
-
-``live`` streams an episode step by step while it runs; ``record`` runs one and saves an
-.rrd file and/or an episode record (JSON, gzip for .gz); ``replay`` re-simulates a saved
-record (refusing one whose scenario changed) into a viewer or a file; ``bench`` times an
-episode with and without recording it to a file.
-"""
+"""``multicrane replay``: 3D replays in the rerun viewer (live, record, replay, bench)."""
 
 from __future__ import annotations
 
@@ -22,36 +9,30 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from multicrane.cli.common import error, formatter
 
-import multicrane  # noqa: E402
-from multicrane.record import EpisodeRecord, RecordError, record_episode  # noqa: E402
-from policies.greedy import GreedyPolicy  # noqa: E402
-from policies.prioritized import PrioritizedPlanner  # noqa: E402
-from policies.random_policy import RandomPolicy  # noqa: E402
+DESCRIPTION = """3D replays of episodes with rerun (needs the 'replay' extra: rerun-sdk 0.41).
 
-POLICIES = {
-    "greedy": lambda env, seed: GreedyPolicy(env, seed=seed),
-    "prioritized": lambda env, seed: PrioritizedPlanner(env, seed=seed),
-    "random": lambda env, seed: RandomPolicy(seed=seed),
-}
+    multicrane replay live --scenario hall-4c --policy prioritized --spawn
+    multicrane replay live --scenario hall-4c --connect rerun+http://127.0.0.1:9876/proxy
+    multicrane replay record --scenario hall-4c --cranes 4 --policy prioritized \\
+        --seed 0 --rrd hall.rrd --record hall.json.gz
+    multicrane replay replay hall.json.gz --rrd again.rrd      # or --spawn / --connect
+    multicrane replay bench --scenario hall-4c --policy random --steps 1000
+
+live streams an episode step by step while it runs; record runs one and saves an .rrd file
+and/or an episode record (JSON, gzip for .gz); replay re-simulates a saved record (refusing
+one whose scenario changed) into a viewer or a file; bench times an episode with and without
+recording it to a file.
+"""
 PLAY_STATES = ["paused", "playing", "following"]
-
-
-def make_policy(spec: str, env, seed: int):
-    """A named policy, or a trained model's run directory (``tools/train.py --out``)."""
-    if spec in POLICIES:
-        return POLICIES[spec](env, seed)
-    from policies.registry import policy_factory
-
-    return policy_factory(spec, paper=False)[1](env, seed)
 
 
 def _episode_args(p: argparse.ArgumentParser, policy: str = "prioritized") -> None:
     p.add_argument("--scenario", default="hall-4c", help="shipped name or path to a .toml file")
     p.add_argument("--cranes", type=int, default=None, help="default: the scenario's")
     p.add_argument("--policy", default=policy,
-                   help=f"{', '.join(sorted(POLICIES))}, or a training run directory")  # fmt: skip
+                   help="prioritized, greedy, random, or a training run directory")  # fmt: skip
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--auto", action="store_true", help="automatic mode (random/greedy only)")
     p.add_argument("--max-steps", type=int, default=None, help="default: the scenario's limit")
@@ -66,51 +47,78 @@ def _viewer_args(p: argparse.ArgumentParser) -> None:
                    help="initial state of the viewer's time panel")  # fmt: skip
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    sub = p.add_subparsers(dest="command", required=True)
-    live = sub.add_parser("live", help="stream an episode to a viewer while it runs")
+def register(sub) -> None:
+    top = sub.add_parser("replay", help="3D replays in rerun (needs the 'replay' extra)",
+                         description=DESCRIPTION, **formatter())  # fmt: skip
+    modes = top.add_subparsers(dest="mode", metavar="MODE", required=True)
+    live = modes.add_parser("live", help="stream an episode to a viewer while it runs")
     _episode_args(live)
     _viewer_args(live)
     live.add_argument("--record", type=Path, help="also save the episode record here")
-    rec = sub.add_parser("record", help="run an episode, save .rrd and/or an episode record")
+    live.set_defaults(func=cmd_live)
+    rec = modes.add_parser("record", help="run an episode, save .rrd and/or an episode record")
     _episode_args(rec)
     rec.add_argument("--rrd", type=Path, help="write the 3D replay here (.rrd)")
     rec.add_argument("--record", type=Path, help="write the episode record (.json, .json.gz)")
     rec.add_argument("--play-state", choices=PLAY_STATES, default=None)
-    rep = sub.add_parser("replay", help="replay a saved episode record")
+    rec.set_defaults(func=cmd_record)
+    rep = modes.add_parser("replay", help="replay a saved episode record")
     rep.add_argument("record", type=Path, help="an episode record (.json or .json.gz)")
     rep.add_argument("--rrd", type=Path, help="write the replay here instead of a viewer")
     _viewer_args(rep)
-    bench = sub.add_parser("bench", help="steps/s with and without recording to a file")
-    _episode_args(bench, policy="random")
-    bench.add_argument("--steps", type=int, default=1000, help="episode length (max steps)")
-    bench.add_argument("--repeats", type=int, default=3)
-    return p.parse_args(argv)
+    rep.set_defaults(func=cmd_replay)
+    bench_p = modes.add_parser("bench", help="steps/s with and without recording to a file")
+    _episode_args(bench_p, policy="random")
+    bench_p.add_argument("--steps", type=int, default=1000, help="episode length (max steps)")
+    bench_p.add_argument("--repeats", type=int, default=3)
+    bench_p.set_defaults(func=cmd_bench)
+
+
+def _guarded(command):
+    """Run ``command(args)``, turning the library's refusals into ``error: ...`` and status 2."""
+
+    def run(args: argparse.Namespace) -> int:
+        import multicrane
+        from multicrane.record import RecordError
+        from policies import PolicyError
+
+        try:
+            return command(args)
+        except (multicrane.ScenarioError, RecordError, PolicyError, ValueError) as exc:
+            return error(exc)
+
+    run.__doc__ = command.__doc__
+    return run
 
 
 def _make_env(args: argparse.Namespace):
+    import multicrane
+
     max_steps = getattr(args, "steps", None) or args.max_steps
     return multicrane.parallel_env(
         args.scenario, n_cranes=args.cranes, auto=args.auto, max_steps=max_steps
     )
 
 
+def _make_policy(spec: str, env, seed: int):
+    import policies
+
+    return policies.make(spec, env, seed=seed)
+
+
 def _stream(args: argparse.Namespace, name: str, scenario):
     from multicrane import viewer
 
     rec = viewer.new_recording(name)
+    blueprint = viewer.blueprint(scenario, args.play_state)
     if args.spawn:
-        rec.spawn(default_blueprint=viewer.blueprint(scenario, args.play_state))
+        rec.spawn(default_blueprint=blueprint)
     else:
-        rec.connect_grpc(args.connect or None,
-                         default_blueprint=viewer.blueprint(scenario, args.play_state))  # fmt: skip
+        rec.connect_grpc(args.connect or None, default_blueprint=blueprint)
     return rec
 
 
-def _summary(record: EpisodeRecord) -> str:
+def _summary(record) -> str:
     m = record.metrics
     return (
         f"{record.scenario} ({record.n_cranes} cranes, {record.policy or 'policy ?'}, seed "
@@ -119,6 +127,7 @@ def _summary(record: EpisodeRecord) -> str:
     )
 
 
+@_guarded
 def cmd_live(args: argparse.Namespace) -> int:
     from multicrane import viewer
 
@@ -126,8 +135,8 @@ def cmd_live(args: argparse.Namespace) -> int:
         args.spawn = True
     env = _make_env(args)
     rec = _stream(args, f"{env.scenario.name} live", env.scenario)
-    record = viewer.run_live(env, make_policy(args.policy, env, args.seed), args.seed, rec,
-                             policy_name=args.policy)  # fmt: skip
+    policy = _make_policy(args.policy, env, args.seed)
+    record = viewer.run_live(env, policy, args.seed, rec, policy_name=args.policy)
     rec.flush()
     print(_summary(record))
     if args.record:
@@ -136,15 +145,17 @@ def cmd_live(args: argparse.Namespace) -> int:
     return 0
 
 
+@_guarded
 def cmd_record(args: argparse.Namespace) -> int:
-    from multicrane import viewer
+    from multicrane.record import record_episode
 
     if not (args.rrd or args.record):
-        print("error: give --rrd and/or --record", file=sys.stderr)
-        return 2
+        return error("give --rrd and/or --record")
     env = _make_env(args)
-    policy = make_policy(args.policy, env, args.seed)
+    policy = _make_policy(args.policy, env, args.seed)
     if args.rrd:
+        from multicrane import viewer
+
         record = viewer.record_and_save(env, policy, args.seed, args.rrd, args.policy,
                                         play_state=args.play_state)  # fmt: skip
         print(f"replay: {args.rrd}")
@@ -157,24 +168,21 @@ def cmd_record(args: argparse.Namespace) -> int:
     return 0
 
 
+@_guarded
 def cmd_replay(args: argparse.Namespace) -> int:
     from multicrane import viewer
+    from multicrane.record import EpisodeRecord
 
-    try:
-        record = EpisodeRecord.load(args.record)
-        if args.rrd:
-            viewer.record_to_rrd(record, args.rrd, play_state=args.play_state)
-            print(f"replay: {args.rrd}")
-        else:
-            if not (args.spawn or args.connect is not None):
-                args.spawn = True
-            scenario = record.load_scenario()
-            rec = _stream(args, viewer._name(record), scenario)
-            viewer.send_record(record, rec)
-            rec.flush()
-    except RecordError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    record = EpisodeRecord.load(args.record)
+    if args.rrd:
+        viewer.record_to_rrd(record, args.rrd, play_state=args.play_state)
+        print(f"replay: {args.rrd}")
+    else:
+        if not (args.spawn or args.connect is not None):
+            args.spawn = True
+        rec = _stream(args, viewer._name(record), record.load_scenario())
+        viewer.send_record(record, rec)
+        rec.flush()
     print(_summary(record))
     return 0
 
@@ -190,23 +198,26 @@ def bench(
 ) -> dict:
     """Time ``repeats`` episodes of at most ``steps`` steps without and with recording to an
     .rrd file (collecting as it runs, then ``send_columns``) plus the episode record."""
+    import multicrane
     from multicrane import viewer
+    from multicrane.record import record_episode
 
     env = multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, max_steps=steps)
     plain, recorded, n_steps = [], [], 0
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(repeats):
             t0 = time.perf_counter()
-            rec = record_episode(env, make_policy(policy, env, seed + i), seed + i, policy)
+            rec = record_episode(env, _make_policy(policy, env, seed + i), seed + i, policy)
             plain.append(time.perf_counter() - t0)
             n_steps = rec.steps
             t0 = time.perf_counter()
             rec2 = viewer.record_and_save(
-                env, make_policy(policy, env, seed + i), seed + i, Path(tmp) / "e.rrd", policy
+                env, _make_policy(policy, env, seed + i), seed + i, Path(tmp) / "e.rrd", policy
             )
             rec2.save(Path(tmp) / "e.json.gz")
             recorded.append(time.perf_counter() - t0)
-            assert rec2.actions == rec.actions
+            if rec2.actions != rec.actions:
+                raise RuntimeError("recording changed the episode")
     a, b = statistics.median(plain), statistics.median(recorded)
     return {
         "scenario": scenario,
@@ -219,6 +230,7 @@ def bench(
     }
 
 
+@_guarded
 def cmd_bench(args: argparse.Namespace) -> int:
     r = bench(args.scenario, args.cranes, args.policy, args.steps, args.seed, args.repeats,
               args.auto)  # fmt: skip
@@ -227,23 +239,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         f"(median of {args.repeats}):\n"
         f"  episode only:                 {r['plain_steps_per_s']:8.0f} steps/s\n"
         f"  episode + .rrd + record file: {r['recorded_steps_per_s']:8.0f} steps/s\n"
-        f"  time ratio: {r['ratio']:.2f}x (target: at most 2x)"
+        f"  time ratio: {r['ratio']:.2f}x (target: at most 2x)",
+        file=sys.stdout,
     )
     return 0
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    try:
-        return {"live": cmd_live, "record": cmd_record, "replay": cmd_replay,
-                "bench": cmd_bench}[args.command](args)  # fmt: skip
-    except (multicrane.ScenarioError, RecordError, ValueError) as exc:  # PolicyError too
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    except ImportError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 3
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,69 @@
+"""How long runs take: a CPU-time estimate per run, the wall time of a sweep on n workers, and
+the longest-first order the backends use.
+
+Training sets the pace (the environment itself runs at 25,000+ steps/s in every
+configuration), so the estimate is the learner's measured throughput plus pessimistic
+evaluations (every episode at the step limit).
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Iterable, Sequence
+
+from multicrane.benchmark.profiles import RunSpec
+
+# Training steps per second of one process with one torch thread, measured on the 2-core
+# development machine (paper settings; the environment itself runs at 25,000+ steps/s in
+# every configuration, so the learner sets the pace).
+THROUGHPUT = {"dqn": 450, "double_dqn": 450, "a2c": 5000, "ppo": 3000, "maskable_ppo": 2500}
+# Greedy evaluation: seconds per environment step (model prediction + environment), and
+# the step limit of an episode (an untrained policy runs to it).
+EVAL_STEP_SECONDS = 0.00025
+EPISODE_LIMIT = {"E1": 100, "E2": 100, "E3": 300, "E4": 600}
+RUN_OVERHEAD_SECONDS = 1.0  # building the environments and model, writing files
+
+
+def estimate_seconds(spec: RunSpec, done_steps: int = 0) -> float:
+    """CPU seconds of one run (of what is left after ``done_steps``): training at
+    ``THROUGHPUT``, plus curve points and the final evaluation with every episode at the
+    step limit (the pessimistic case)."""
+    t = spec.train
+    left = max(0, t["total_steps"] - done_steps)
+    train = left / THROUGHPUT[spec.algo]
+    points = (left // t["eval_every"] + 2) if t["eval_every"] else 1
+    episode = EPISODE_LIMIT[spec.config[:2]] * EVAL_STEP_SECONDS
+    return train + points * t["eval_episodes"] * episode + RUN_OVERHEAD_SECONDS
+
+
+def estimate_wall(
+    specs: Sequence[RunSpec], workers: int, done_steps: dict[RunSpec, int] | None = None
+) -> float:
+    """Wall seconds with ``workers`` processes, longest runs first (as the backends order
+    them), each process starting up once (~3 s: importing torch). ``done_steps``: steps
+    already in the checkpoints of partial runs."""
+    done_steps = done_steps or {}
+    loads = [3.0] * max(1, min(workers, len(specs)))
+    heapq.heapify(loads)
+    costs = (estimate_seconds(s, done_steps.get(s) or 0) for s in specs)
+    for cost in sorted(costs, reverse=True):
+        heapq.heappush(loads, heapq.heappop(loads) + cost)
+    return max(loads) if specs else 0.0
+
+
+def longest_first(
+    specs: Iterable[RunSpec], done_steps: dict[RunSpec, int] | None = None
+) -> list[RunSpec]:
+    done_steps = done_steps or {}
+    return sorted(specs, key=lambda s: estimate_seconds(s, done_steps.get(s) or 0), reverse=True)
+
+
+def format_duration(seconds: float) -> str:
+    seconds = int(round(seconds))
+    if seconds < 120:
+        return f"{seconds} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 3 * 86400:
+        return f"{seconds / 3600:.1f} h"
+    return f"{seconds / 86400:.1f} days"

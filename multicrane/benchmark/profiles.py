@@ -1,0 +1,320 @@
+"""What a sweep is: the named budget profiles and the runs (configuration x algorithm x seed,
+with their ``TrainConfig`` settings) that a profile and the command line's choices expand to.
+
+A sweep is configurations x algorithms x seeds under one budget. Each run is one
+``multicrane.training.train`` run directory, ``<out>/<CONFIG>/<algo>/seed<k>/`` (see
+``multicrane.benchmark.runstate`` for what it holds). Nothing here touches the disk.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from multicrane.paper_env import PAPER_CONFIGS
+
+ALGOS = ("dqn", "double_dqn", "a2c", "ppo", "maskable_ppo")
+# The four algorithms the paper's text describes (vanilla DQN, double DQN, A2C, PPO).
+PAPER_ALGOS = ("dqn", "double_dqn", "a2c", "ppo")
+DEFAULT_ROOT = Path("runs") / "bench"
+
+
+class SweepError(ValueError):
+    """A sweep that cannot be set up or run; the message names the option, value or file."""
+
+
+# -- profiles ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A named budget: which runs, and how long each trains and is evaluated.
+
+    ``hyperparams`` and ``n_envs`` are per algorithm (``TrainConfig.hyperparams`` /
+    ``n_envs``); absent algorithms use the paper's settings.
+    """
+
+    name: str
+    configs: tuple[str, ...]
+    algos: tuple[str, ...]
+    seeds: tuple[int, ...]
+    steps: int
+    eval_every: int
+    eval_episodes: int
+    checkpoint_every: int
+    about: str
+    final_episodes: int | None = None  # the final evaluation (default: eval_episodes)
+    hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
+    n_envs: dict[str, int] = field(default_factory=dict)
+
+
+ENV1_ENV2 = tuple(c for c in PAPER_CONFIGS if c[:2] in ("E1", "E2"))
+
+PROFILES: dict[str, Profile] = {
+    p.name: p
+    for p in (
+        Profile(
+            name="smoke",
+            configs=("E1S1", "E2S2"),
+            algos=ALGOS,
+            seeds=(0,),
+            steps=1_000,
+            eval_every=500,
+            eval_episodes=3,
+            checkpoint_every=0,
+            about="seconds: tries every algorithm once on two configurations (CI, trying "
+            "the tool); learns nothing",
+        ),
+        # The quick profile: about 35 minutes with 2 workers on a 2-core machine (see
+        # docs/benchmark.md for the estimate). DQN and double DQN take 90 % of the time
+        # (one gradient step per environment step, ~450 steps/s); change `steps` or
+        # `seeds` here to resize it.
+        Profile(
+            name="quick",
+            configs=ENV1_ENV2,
+            algos=ALGOS,
+            seeds=(0, 1, 2),
+            steps=30_000,
+            eval_every=3_000,
+            eval_episodes=10,
+            final_episodes=50,
+            checkpoint_every=0,  # runs of a minute: a checkpoint only when interrupted
+            about="about 35 min on 2 cores: Env1 and Env2 (8 configurations), all five "
+            "algorithms, 3 seeds, 30,000 steps per run",
+        ),
+        Profile(
+            name="paper",
+            configs=PAPER_CONFIGS,
+            algos=PAPER_ALGOS,
+            seeds=tuple(range(15)),
+            steps=1_000_000,
+            eval_every=10_000,
+            eval_episodes=10,
+            final_episodes=100,
+            checkpoint_every=100_000,
+            about="the paper's protocol: 16 configurations, DQN / double DQN / A2C / PPO, "
+            "15 seeds, 1,000,000 steps per run, a curve point every 10,000 steps (the "
+            "paper's epoch) over 10 episodes (Fig. 7); days of CPU time, meant for a cluster",
+        ),
+    )
+}
+
+
+# -- runs and sweeps -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of a sweep: its place in the grid and its ``TrainConfig`` keyword arguments."""
+
+    config: str
+    algo: str
+    seed: int
+    train: dict[str, Any] = field(compare=False)  # a run is known by (config, algo, seed)
+
+    @property
+    def name(self) -> str:
+        return f"{self.config}/{self.algo}/seed{self.seed}"
+
+    def dir(self, out: Path) -> Path:
+        return Path(out) / self.config / self.algo / f"seed{self.seed}"
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A profile with the command line's choices applied, and where its runs live."""
+
+    name: str
+    profile: str
+    out: Path
+    configs: tuple[str, ...]
+    algos: tuple[str, ...]
+    seeds: tuple[int, ...]
+    steps: int
+    eval_every: int
+    eval_episodes: int
+    checkpoint_every: int
+    final_episodes: int | None = None
+    hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
+    n_envs: dict[str, int] = field(default_factory=dict)
+
+    def runs(self) -> list[RunSpec]:
+        """Every run, configuration-major, then algorithm, then seed."""
+        return [
+            RunSpec(config, algo, seed, self.train_kwargs(config, algo, seed))
+            for config in self.configs
+            for algo in self.algos
+            for seed in self.seeds
+        ]
+
+    def train_kwargs(self, config: str, algo: str, seed: int) -> dict[str, Any]:
+        return jsonable(
+            {
+                "scenario": config,
+                "paper": True,
+                "algo": algo,
+                "total_steps": self.steps,
+                "seed": seed,
+                "n_envs": self.n_envs.get(algo),
+                "hyperparams": self.hyperparams.get(algo, {}),
+                "eval_every": self.eval_every,
+                "eval_episodes": self.eval_episodes,
+                "final_episodes": self.final_episodes,
+                "checkpoint_every": self.checkpoint_every,
+                "torch_threads": 1,
+            }
+        )
+
+    def budget(self) -> str:
+        """One line: steps, seeds, evaluations."""
+        return (
+            f"{self.steps:,} environment steps per run, {len(self.seeds)} seed"
+            f"{'s' if len(self.seeds) != 1 else ''} ({format_seeds(self.seeds)}), "
+            f"curve evaluations every {self.eval_every:,} steps over {self.eval_episodes} "
+            f"episodes, final evaluation over {self.final_episodes or self.eval_episodes} episodes"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "profile": self.profile,
+            "configs": list(self.configs),
+            "algos": list(self.algos),
+            "seeds": list(self.seeds),
+            "steps": self.steps,
+            "eval_every": self.eval_every,
+            "eval_episodes": self.eval_episodes,
+            "final_episodes": self.final_episodes,
+            "checkpoint_every": self.checkpoint_every,
+            "hyperparams": jsonable(self.hyperparams),
+            "n_envs": dict(self.n_envs),
+        }
+
+
+def make_sweep(
+    profile: str | Profile = "smoke",
+    *,
+    configs: Sequence[str] | None = None,
+    algos: Sequence[str] | None = None,
+    seeds: Sequence[int] | None = None,
+    steps: int | None = None,
+    eval_every: int | None = None,
+    eval_episodes: int | None = None,
+    out: str | Path | None = None,
+    root: str | Path = DEFAULT_ROOT,
+) -> Sweep:
+    """The profile with the given choices. ``configs``/``algos``/``seeds`` pick runs (they
+    share directories with the whole profile); ``steps``/``eval_every``/``eval_episodes``
+    change every run, so unless ``out`` is given such a sweep gets its own directory
+    (``<root>/<profile>-<steps>steps-eval<every>x<episodes>``)."""
+    if isinstance(profile, str):
+        if profile not in PROFILES:
+            raise SweepError(f"unknown profile {profile!r}: one of {', '.join(PROFILES)}")
+        profile = PROFILES[profile]
+    chosen_configs = parse_configs(configs) if configs else profile.configs
+    chosen_algos = tuple(algos) if algos else profile.algos
+    for algo in chosen_algos:
+        if algo not in ALGOS:
+            raise SweepError(f"unknown algorithm {algo!r}: one of {', '.join(ALGOS)}")
+    chosen_seeds = tuple(seeds) if seeds is not None and len(seeds) else profile.seeds
+    for seed in chosen_seeds:
+        if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+            raise SweepError(f"seed {seed!r}: seeds are non-negative integers")
+    for label, values in (
+        ("configuration", chosen_configs),
+        ("algorithm", chosen_algos),
+        ("seed", chosen_seeds),
+    ):
+        twice = sorted({str(v) for v in values if list(values).count(v) > 1})
+        if twice:
+            raise SweepError(f"{label} given twice: {', '.join(twice)}")
+    budget = {
+        "steps": profile.steps if steps is None else steps,
+        "eval_every": profile.eval_every if eval_every is None else eval_every,
+        "eval_episodes": profile.eval_episodes if eval_episodes is None else eval_episodes,
+    }
+    for key, value in budget.items():
+        low = 0 if key == "eval_every" else 1
+        if not isinstance(value, int) or isinstance(value, bool) or value < low:
+            raise SweepError(f"{key}={value!r}: must be an integer >= {low}")
+    custom = (budget["steps"], budget["eval_every"], budget["eval_episodes"]) != (
+        profile.steps,
+        profile.eval_every,
+        profile.eval_episodes,
+    )
+    name = profile.name
+    if custom:
+        name = (
+            f"{profile.name}-{budget['steps']}steps-eval{budget['eval_every']}"
+            f"x{budget['eval_episodes']}"
+        )
+    return Sweep(
+        name=name,
+        profile=profile.name,
+        out=Path(out) if out is not None else Path(root) / name,
+        configs=chosen_configs,
+        algos=chosen_algos,
+        seeds=chosen_seeds,
+        checkpoint_every=profile.checkpoint_every,
+        final_episodes=profile.final_episodes,
+        hyperparams={a: dict(h) for a, h in profile.hyperparams.items() if a in chosen_algos},
+        n_envs={a: n for a, n in profile.n_envs.items() if a in chosen_algos},
+        **budget,
+    )
+
+
+def parse_configs(items: Iterable[str]) -> tuple[str, ...]:
+    """``E1S1`` .. ``E4S4``, ``E2`` (its four scenarios) or ``all``, in paper order."""
+    chosen: set[str] = set()
+    for item in items:
+        token = item.strip().upper()
+        if token == "ALL":
+            chosen.update(PAPER_CONFIGS)
+        elif token in PAPER_CONFIGS:
+            chosen.add(token)
+        elif token in ("E1", "E2", "E3", "E4"):
+            chosen.update(c for c in PAPER_CONFIGS if c.startswith(token))
+        else:
+            raise SweepError(
+                f"unknown configuration {item!r}: E1S1 .. E4S4, E1 .. E4 (an environment's "
+                "four scenarios) or all"
+            )
+    return tuple(c for c in PAPER_CONFIGS if c in chosen)
+
+
+def parse_seeds(items: Iterable[str]) -> tuple[int, ...]:
+    """``0 1 2``, ``0-14`` or ``0,3,5``."""
+    seeds: list[int] = []
+    for item in items:
+        for part in str(item).split(","):
+            part = part.strip()
+            if not part:
+                continue
+            first, dash, last = part.partition("-")
+            try:
+                if dash:
+                    lo, hi = int(first), int(last)
+                    if hi < lo:
+                        raise ValueError
+                    seeds.extend(range(lo, hi + 1))
+                else:
+                    seeds.append(int(part))
+            except ValueError:
+                raise SweepError(f"seeds {item!r}: expected integers or ranges like 0-14") from None
+    return tuple(seeds)
+
+
+def format_seeds(seeds: Sequence[int]) -> str:
+    """``0-14`` for a contiguous range, else the list."""
+    seeds = list(seeds)
+    if len(seeds) > 2 and seeds == list(range(seeds[0], seeds[0] + len(seeds))):
+        return f"{seeds[0]}-{seeds[-1]}"
+    return ", ".join(str(s) for s in seeds)
+
+
+def jsonable(value: Any) -> Any:
+    """The value as it reads back from JSON (tuples become lists), for comparisons."""
+    return json.loads(json.dumps(value))

@@ -1,0 +1,92 @@
+"""What the subcommands share: the environment options, building that environment, errors."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+# Importable module (first dotted part) -> the extra of pyproject.toml that installs it.
+EXTRAS = {
+    "torch": "train",
+    "stable_baselines3": "train",
+    "sb3_contrib": "train",
+    "supersuit": "train",
+    "tensorboard": "train",
+    "rerun": "replay",
+    "matplotlib": "bench",
+    "ray": "ray",
+}
+
+
+def missing_extra(exc: BaseException | None) -> str | None:
+    """The extra that would install the module ``exc`` (or the import error it was raised
+    from) failed to import, if it is one of ours."""
+    while exc is not None:
+        name = (getattr(exc, "name", None) or "").split(".")[0]
+        if name in EXTRAS:
+            return EXTRAS[name]
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+def needs_extra(command: str, extra: str) -> int:
+    """Say which extra a command needs (one line on stderr) and return exit status 2."""
+    print(
+        f"multicrane {command} needs the '{extra}' extra: pip install 'multicrane[{extra}]'",
+        file=sys.stderr,
+    )
+    return 2
+
+
+def error(message: object, status: int = 2) -> int:
+    """Print ``error: message`` on stderr and return ``status``."""
+    print(f"error: {message}", file=sys.stderr)
+    return status
+
+
+def formatter() -> dict:
+    """Keyword arguments for a subparser that shows its description as written."""
+    return {"formatter_class": argparse.RawDescriptionHelpFormatter}
+
+
+def add_environment_args(p: argparse.ArgumentParser, required: bool = True) -> None:
+    """``--paper CONFIG`` or ``--scenario NAME`` (one of them), ``--cranes``, ``--auto``."""
+    where = p.add_mutually_exclusive_group(required=required)
+    where.add_argument("--paper", metavar="CONFIG", help="single-agent benchmark: E1S1 .. E4S4")
+    where.add_argument("--scenario", help="multi-agent: shipped scenario name or .toml path")
+    p.add_argument("--cranes", type=int, default=None, help="cranes (default: scenario's)")
+    p.add_argument("--auto", action="store_true", help="multi-agent automatic mode")
+
+
+def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **options):
+    """The paper-mode Gymnasium env for ``paper`` (with the blocked-move mask, which changes no
+    dynamics: masked models need it, the others ignore it), else the multi-agent env."""
+    import multicrane
+
+    if paper:
+        return multicrane.PaperAssemblyEnv(paper, mask_blocked_moves=True)
+    return multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, **options)
+
+
+def describe(env) -> str:
+    """One line about an environment: scenario, components, cranes, site, step limit."""
+    if hasattr(env, "possible_agents"):
+        s = env.scenario
+        return (
+            f"scenario {s.name}: {s.n_components} components, {env.sim.n_cranes} crane(s), "
+            f"site {s.size[0]}x{s.size[1]}x{s.size[2]}, step limit {env.step_limit}"
+            + (", automatic mode" if env.auto else "")
+        )
+    return f"paper configuration {env.config}"
+
+
+def counting(advance):
+    """A ``progress`` for ``multicrane.rollout.evaluate``: passes the seeds through and
+    advances a bar (``multicrane.cli.progress``) by one after each episode."""
+
+    def wrap(seeds):
+        for seed in seeds:
+            yield seed
+            advance(1)
+
+    return wrap

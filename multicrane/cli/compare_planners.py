@@ -1,0 +1,83 @@
+"""``multicrane compare-planners``: classical planners on the shipped scenarios with 1-4 cranes."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from multicrane.cli import progress
+from multicrane.cli.common import formatter
+
+DESCRIPTION = """Classical multi-crane planners on every shipped scenario with 1-4 cranes: the
+baselines RL must beat.
+
+    multicrane compare-planners                                  # text tables
+    multicrane compare-planners --markdown --output docs/planners.md
+    multicrane compare-planners --scenarios hall-4c frame2-3c --cranes 1 4 --seeds 3
+
+For each scenario (default: all) and crane count (default 1 2 3 4) it plays, in the claiming
+mode, the episodes reset(seed=first + i) starts: greedy and prioritized (--seeds episodes),
+random (--random-seeds episodes, seeded per episode with (seed, 1)), and for the paper's
+configurations (e?s?) with one crane the exact single-agent optimum on the same layouts.
+Metrics: makespan, success rate, blocked moves, crane utilisation and planning time per
+decision. Progress goes to stderr.
+"""
+
+POLICIES = ("greedy", "prioritized", "random")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("compare-planners", help="compare the classical planners",
+                       description=DESCRIPTION, **formatter())  # fmt: skip
+    p.add_argument("--scenarios", nargs="+", default=None, help="default: every shipped one")
+    p.add_argument("--cranes", nargs="+", type=int, default=[1, 2, 3, 4])
+    p.add_argument("--policies", nargs="+", default=list(POLICIES), choices=POLICIES)
+    p.add_argument("--seeds", type=int, default=5, help="episodes per setting (planners)")
+    p.add_argument("--random-seeds", type=int, default=2, help="episodes per setting (random)")
+    p.add_argument("--seed", type=int, default=0, help="first episode seed")
+    p.add_argument("--no-optimal", dest="optimal", action="store_false")
+    p.add_argument("--markdown", action="store_true", help="print a whole markdown page")
+    p.add_argument("--output", type=Path, help="write the report here instead of stdout")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    import multicrane
+    import policies
+    from multicrane.cli.common import error
+    from multicrane.files import write_atomic
+    from multicrane.reports.planners import Setup, run_all
+    from multicrane.reports.planners_page import markdown_page, text_report
+    from multicrane.reports.provenance import command_line
+
+    names = multicrane.scenario_names()
+    scenarios = args.scenarios or names
+    unknown = [s for s in scenarios if s not in names]
+    if unknown:
+        return error(f"unknown scenario(s): {', '.join(unknown)}")
+    if args.seeds < 1:
+        return error("--seeds must be at least 1")
+    setup = Setup(scenarios, args.cranes, args.policies, args.seeds, args.random_seeds,
+                  args.seed, args.optimal)  # fmt: skip
+    makers = {name: policies.factory(name, paper=False) for name in args.policies}
+    with progress.bar(setup.episodes(), "compare-planners") as advance:
+        quiet = progress.enabled()
+        results = run_all(
+            setup, makers, policies.factory("optimal", paper=True), advance,
+            log=None if quiet else (lambda line: print(line, file=sys.stderr, flush=True)),
+        )  # fmt: skip
+    if args.markdown:
+        report = markdown_page(results, command_line(args.argv))
+    else:
+        report = text_report(results)
+    report += "" if report.endswith("\n") else "\n"
+    if args.output:
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(args.output, report)
+        print(f"wrote {args.output}", file=sys.stderr)
+    else:
+        sys.stdout.write(report)
+    return 0

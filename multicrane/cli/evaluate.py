@@ -1,0 +1,111 @@
+"""``multicrane evaluate``: put policies (trained models, planners, random) on the same seeds."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from multicrane.cli import progress
+from multicrane.cli.common import add_environment_args, counting, error, formatter, make_env
+
+DESCRIPTION = """Evaluate policies (trained models, planners, greedy, random) on a scenario
+and seeds.
+
+    multicrane evaluate --paper E2S2 --policy runs/E2S2-ppo-s0 optimal greedy random
+    multicrane evaluate --scenario e2s2 --cranes 2 \\
+        --policy runs/e2s2-2c-maskable_ppo-s0 prioritized greedy random --episodes 50
+
+A policy is optimal (paper mode), prioritized (multi-agent), greedy, random, or a training
+run directory (multicrane train --out; needs the 'train' extra). Every policy plays the same
+episodes: reset seeds --seed .. --seed + episodes - 1 (default: the evaluation seeds training
+uses, 1000000..). Trained models act greedily. Prints, per policy: mean return ± standard
+error over episodes, success rate, mean steps to finish (finished episodes), mean steps, and
+in paper mode the gap to the exact planner's return on the same seeds.
+"""
+
+
+def register(sub) -> None:
+    p = sub.add_parser("evaluate", help="compare policies on the same seeds",
+                       description=DESCRIPTION, **formatter())  # fmt: skip
+    add_environment_args(p)
+    p.add_argument("--policy", nargs="+", required=True, help="names or run directories")
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--seed", type=int, default=None, help="first reset seed")
+    p.add_argument("--json", type=Path, help="also write the results here")
+    p.set_defaults(func=run)
+
+
+def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
+    """One row per policy: its label, summary and episodes (all on the same seeds)."""
+    import policies
+    from multicrane.rollout import evaluate, optimal_returns
+    from multicrane.training.seeding import evaluation_seeds
+
+    paper = args.paper is not None
+    env = make_env(args.paper, args.scenario, args.cranes, args.auto)
+    if args.seed is None:
+        seeds = evaluation_seeds(args.episodes)  # the seeds training evaluates on
+    else:
+        seeds = list(range(args.seed, args.seed + args.episodes))
+    factories = [policies.factory(spec, paper=paper) for spec in args.policy]  # fail early
+    best = optimal_returns(env, seeds) if paper else None
+    rows = []
+    for make in factories:
+        start = time.perf_counter()
+        progress_ = counting(advance) if advance else None
+        episodes, summary = evaluate(env, make, seeds, progress_, optimal=best)
+        summary["seconds"] = round(time.perf_counter() - start, 3)
+        rows.append({"policy": make.label, "summary": summary, "episodes": episodes})
+    return rows
+
+
+def _pm(summary: dict) -> str:
+    sem = summary["return_sem"]
+    return f"{summary['return_mean']:>10.2f} ± {'-' if sem is None else f'{sem:.2f}':<6}"
+
+
+def format_table(rows: list[dict], paper: bool) -> str:
+    head = f"{'policy':<44} {'return':>18} {'success':>8} {'finish':>7} {'steps':>7}"
+    if paper:
+        head += f" {'gap':>8} {'gap %':>7}"
+    lines = [head]
+    for row in rows:
+        s = row["summary"]
+        finish = "-" if s["finish_steps_mean"] is None else f"{s['finish_steps_mean']:.1f}"
+        line = (
+            f"{row['policy'][:44]:<44} {_pm(s)}"
+            f"{s['success_rate']:>8.0%} {finish:>7} {s['steps_mean']:>7.1f}"
+        )
+        if paper:
+            pct = "-" if s["gap_pct"] is None else f"{s['gap_pct']:.1f}"
+            line += f" {s['gap']:>8.2f} {pct:>7}"
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    import json
+
+    import multicrane
+    from policies import PolicyError
+
+    if args.episodes < 1:
+        return error("--episodes must be at least 1")
+    total = args.episodes * len(args.policy)
+    try:
+        with progress.bar(total, "evaluate") as advance:
+            rows = evaluate_all(args, advance)
+    except (PolicyError, multicrane.ScenarioError, ValueError) as exc:
+        return error(exc)
+    paper = args.paper is not None
+    where = args.paper or f"{args.scenario}" + (f", {args.cranes} cranes" if args.cranes else "")
+    print(f"{where}: {args.episodes} episodes per policy (same seeds for all)")
+    print(format_table(rows, paper))
+    if paper:
+        print("gap = optimal return - policy return (exact planner on the same seeds)")
+    if args.json:
+        from multicrane.files import write_atomic
+
+        write_atomic(args.json, json.dumps(rows, indent=1, default=str) + "\n")
+    return 0

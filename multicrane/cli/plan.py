@@ -1,0 +1,124 @@
+"""``multicrane plan``: run any policy on any scenario and print its metrics; record it if asked."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from multicrane.cli import progress
+from multicrane.cli.common import counting, describe, error, formatter, make_env
+
+DESCRIPTION = """Run policies on a scenario and print what they achieve.
+
+    multicrane plan hall-4c --cranes 4 --policy prioritized
+    multicrane plan frame2-3c --policy prioritized greedy random --episodes 5
+    multicrane plan e2s2 --policy greedy --render                # print the final site
+    multicrane plan hall-4c --policy prioritized --record ep.json.gz --rrd ep.rrd
+    multicrane plan E2S2 --paper --policy optimal greedy         # single-agent paper mode
+
+SCENARIO is a shipped scenario name or a .toml file (with --paper: a paper configuration,
+E1S1 .. E4S4). A policy is prioritized, greedy, random (optimal in paper mode) or a training
+run directory (needs the 'train' extra). Episode i starts from reset(seed=--seed + i), the
+same for every policy. Prints, per policy: mean return ± standard error, success rate,
+makespan (joint steps to finish, finished episodes), steps, and in multi-agent mode crane
+utilisation, blocked moves and planning time per joint step. --record writes the first
+episode as an episode record (.json or .json.gz), --rrd as a rerun replay (the 'replay'
+extra); both need one policy, multi-agent mode.
+"""
+
+
+def register(sub) -> None:
+    p = sub.add_parser("plan", help="run a policy on a scenario and print its metrics",
+                       description=DESCRIPTION, **formatter())  # fmt: skip
+    p.add_argument("scenario", help="shipped name, .toml path, or (with --paper) E1S1 .. E4S4")
+    p.add_argument("--paper", action="store_true", help="single-agent paper mode")
+    p.add_argument("--cranes", type=int, default=None, help="default: the scenario's")
+    p.add_argument("--policy", nargs="+", default=["prioritized"],
+                   help="prioritized, greedy, random, optimal (paper), or a run directory")
+    p.add_argument("--episodes", type=int, default=1)
+    p.add_argument("--seed", type=int, default=0, help="first episode seed")
+    p.add_argument("--auto", action="store_true", help="automatic claiming and assembly")
+    p.add_argument("--max-steps", type=int, default=None, help="default: the scenario's limit")
+    p.add_argument("--render", action="store_true", help="print the site after the last episode")
+    p.add_argument("--record", type=Path, help="write the first episode's record here")
+    p.add_argument("--rrd", type=Path, help="write the first episode's 3D replay here (.rrd)")
+    p.set_defaults(func=run)
+
+
+def _num(x: float | None, spec: str) -> str:
+    return "-" if x is None else format(x, spec)
+
+
+def header(multi: bool) -> str:
+    head = f"{'policy':<24} {'return':>18} {'success':>8} {'makespan':>9} {'steps':>8}"
+    if multi:
+        head += f" {'util.':>6} {'blocked':>8} {'ms/step':>8}"
+    return head
+
+
+def line(label: str, s: dict, multi: bool) -> str:
+    """One policy's row, from the summary of its episodes (``multicrane.rollout.summarise``)."""
+    text = (
+        f"{label[:24]:<24} {s['return_mean']:>10.2f} ± {_num(s['return_sem'], '.2f'):<6}"
+        f"{s['success_rate']:>8.0%} {_num(s.get('makespan_mean'), '.1f'):>9}"
+        f" {s['steps_mean']:>8.1f}"
+    )
+    if multi:
+        text += (
+            f" {s['utilisation_mean']:>6.0%} {s['blocked_moves_mean']:>8.1f}"
+            f" {s['plan_ms_per_step']:>8.2f}"
+        )
+    return text
+
+
+def record(args: argparse.Namespace, env, name: str) -> None:
+    """Run the first episode again, recording it (an episode record and/or a .rrd)."""
+    import policies
+    from multicrane.record import record_episode
+
+    policy = policies.make(name, env, seed=args.seed)
+    if args.rrd:
+        from multicrane import viewer
+
+        rec = viewer.record_and_save(env, policy, args.seed, args.rrd, name)
+        print(f"replay: {args.rrd}")
+    else:
+        rec = record_episode(env, policy, args.seed, name)
+    if args.record:
+        rec.save(args.record)
+        print(f"episode record: {args.record}")
+
+
+def run(args: argparse.Namespace) -> int:
+    import multicrane
+    import policies
+    from multicrane.record import RecordError
+    from multicrane.rollout import evaluate
+
+    if args.episodes < 1:
+        return error("--episodes must be at least 1")
+    if (args.record or args.rrd) and (args.paper or len(args.policy) != 1):
+        return error("--record and --rrd need one policy in multi-agent mode")
+    try:
+        if args.paper:
+            env = make_env(args.scenario)
+        else:
+            options = {} if args.max_steps is None else {"max_steps": args.max_steps}
+            env = make_env(None, args.scenario, args.cranes, args.auto, render_mode="ansi",
+                           **options)  # fmt: skip
+        multi = not args.paper
+        seeds = list(range(args.seed, args.seed + args.episodes))
+        makers = [policies.factory(name, paper=args.paper) for name in args.policy]
+        print(describe(env))
+        print(header(multi))
+        for make in makers:
+            with progress.bar(len(seeds), make.label) as advance:
+                _, summary = evaluate(env, make, seeds, counting(advance))
+            print(line(make.label, summary, multi))
+        if args.render and multi:
+            print(env.render())
+        if args.record or args.rrd:
+            record(args, env, args.policy[0])
+    except (policies.PolicyError, multicrane.ScenarioError, RecordError, ValueError) as exc:
+        return error(exc)
+    return 0

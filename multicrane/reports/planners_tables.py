@@ -1,0 +1,154 @@
+"""The tables of the planner comparison (``multicrane.reports.planners``), as text or markdown."""
+
+from __future__ import annotations
+
+from multicrane.reports.planners import LARGE, PLANNERS, Cell, Results
+
+HEAD = [
+    "scenario",
+    "cranes",
+    "greedy makespan",
+    "greedy ok",
+    "greedy blocked",
+    "prioritized makespan",
+    "prioritized ok",
+    "prioritized blocked",
+    "prio vs greedy",
+    "random makespan",
+    "random ok",
+    "optimal (auto) steps",
+    "opt+2/comp",
+]
+
+TIMING_HEAD = [
+    "scenario",
+    "cranes",
+    "planner",
+    "ms per joint decision",
+    "ms per crane decision",
+    "slowest call (ms)",
+]
+
+
+def num(x: float | None, digits: int = 1) -> str:
+    return "-" if x is None else f"{x:.{digits}f}"
+
+
+def cranes(n: int) -> str:
+    return f"{n} crane{'s' if n != 1 else ''}"
+
+
+def _make(cell: Cell | None) -> str:
+    """Mean makespan over completed episodes (min-max when they differ)."""
+    if cell is None:
+        return ""
+    s = cell.summary
+    if s["makespan_mean"] is None:
+        return "-"
+    if s["makespan_min"] == s["makespan_max"]:
+        return f"{s['makespan_mean']:.1f}"
+    return f"{s['makespan_mean']:.1f} ({s['makespan_min']}-{s['makespan_max']})"
+
+
+def _success(cell: Cell | None) -> str:
+    if cell is None:
+        return ""
+    done = sum(r["success"] for r in cell.results)
+    return f"{done}/{len(cell.results)}"
+
+
+def main_rows(res: Results) -> list[list[str]]:
+    """Makespan and success of every (scenario, cranes), beside the optimum where it applies."""
+    rows = []
+    for name in res.setup.scenarios:
+        for n in res.setup.cranes:
+            g = res.cells.get((name, n, "greedy"))
+            p = res.cells.get((name, n, "prioritized"))
+            r = res.cells.get((name, n, "random"))
+            o = res.optimal.get(name) if n == 1 else None
+            delta = ""
+            if g and p and g.summary["makespan_mean"] and p.summary["makespan_mean"]:
+                gm, pm = g.summary["makespan_mean"], p.summary["makespan_mean"]
+                delta = f"{100 * (pm - gm) / gm:+.0f} %"
+            rows.append(
+                [
+                    name,
+                    str(n),
+                    _make(g),
+                    _success(g),
+                    num(g.summary["blocked_moves_mean"]) if g else "",
+                    _make(p),
+                    _success(p),
+                    num(p.summary["blocked_moves_mean"]) if p else "",
+                    delta,
+                    _make(r),
+                    _success(r),
+                    f"{o.steps:.1f}" if o else "",
+                    f"{o.comparable:.1f}" if o else "",
+                ]
+            )
+    return rows
+
+
+def speedup_rows(res: Results) -> list[list[str]]:
+    """Makespan with n cranes relative to 1 crane (large scenarios)."""
+    rows = []
+    if 1 not in res.setup.cranes:
+        return rows
+    for name in res.setup.scenarios:
+        if name not in LARGE:
+            continue
+        for policy in PLANNERS:
+            base = res.cells.get((name, 1, policy))
+            if base is None or base.summary["makespan_mean"] is None:
+                continue
+            b = base.summary["makespan_mean"]
+            row = [name, policy]
+            for n in res.setup.cranes:
+                c = res.cells.get((name, n, policy))
+                m = c.summary["makespan_mean"] if c else None
+                row.append("-" if m is None else f"{m:.1f} (x{b / m:.2f})")
+            u = [res.cells.get((name, n, policy)) for n in res.setup.cranes]
+            row.append(" / ".join(f"{c.summary['utilisation_mean']:.0%}" if c else "-" for c in u))
+            rows.append(row)
+    return rows
+
+
+def timing_rows(res: Results) -> list[list[str]]:
+    """Planning time per decision of the planners (large scenarios)."""
+    rows = []
+    for name in res.setup.scenarios:
+        if name not in LARGE:
+            continue
+        for n in res.setup.cranes:
+            for policy in PLANNERS:
+                c = res.cells.get((name, n, policy))
+                if c is None:
+                    continue
+                s = c.summary
+                rows.append(
+                    [
+                        name,
+                        str(n),
+                        policy,
+                        f"{s['plan_ms_per_step']:.2f}",
+                        f"{s['plan_ms_per_crane']:.2f}",
+                        f"{s['plan_ms_max']:.1f}",
+                    ]
+                )
+    return rows
+
+
+def text(head: list[str], rows: list[list[str]]) -> str:
+    """A right-aligned plain-text table."""
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)] if rows else []
+    lines = ["  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True))]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    return "\n".join(lines)
+
+
+def markdown(head: list[str], rows: list[list[str]], left: int = 1) -> list[str]:
+    """A markdown table (the first ``left`` columns left-aligned), as lines."""
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * left + "---:|" * (len(head) - left)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return out
