@@ -66,15 +66,23 @@ def validate_configs(sweep: Sweep) -> None:
                 raise SweepError(f"{config}/{algo}: {exc}") from None
 
 
-def run_sweep(sweep: Sweep, backend, log: Callable[[str], None] = print) -> SweepRun:
+def run_sweep(
+    sweep: Sweep,
+    backend,
+    log: Callable[[str], None] = print,
+    advance: Callable[[int], None] | None = None,
+) -> SweepRun:
     """Run what is not finished yet: finished runs are skipped, started ones resumed (after
-    ``prepare_run``), the rest started, longest first. Raises ``SweepError`` when the
-    output directory holds runs of another configuration, or another driver runs it."""
+    ``prepare_run``), the rest started, longest first. ``advance(n)`` is told of every run
+    that is finished (those done before first), for a progress bar. Raises ``SweepError``
+    when the output directory holds runs of another configuration, or another driver runs it."""
     with sweep_lock(sweep.out):
-        return _run_sweep(sweep, backend, log)
+        return _run_sweep(sweep, backend, log, advance or (lambda n: None))
 
 
-def _run_sweep(sweep: Sweep, backend, log: Callable[[str], None]) -> SweepRun:
+def _run_sweep(
+    sweep: Sweep, backend, log: Callable[[str], None], advance: Callable[[int], None]
+) -> SweepRun:
     specs = sweep.runs()
     states = {spec: inspect_run(spec, spec.dir(sweep.out)) for spec in specs}
     found = conflicts(states)
@@ -88,6 +96,7 @@ def _run_sweep(sweep: Sweep, backend, log: Callable[[str], None]) -> SweepRun:
     progress = {s: states[s].steps or 0 for s in todo}
     todo = longest_first(todo, progress)
     done_before = len(specs) - len(todo)
+    advance(done_before)
     resumed = sum(bool(progress[s]) for s in todo)
     log(
         f"{sweep.out}: {len(specs)} runs: {done_before} done, {resumed} to resume, "
@@ -112,6 +121,8 @@ def _run_sweep(sweep: Sweep, backend, log: Callable[[str], None]) -> SweepRun:
                 log(f"{spec.name}: wrote the result returned by the worker")
             outcome = replace(outcome, result=None)
         outcomes.append(outcome)
+        if outcome.status == "done":
+            advance(1)
         finished = done_before + sum(o.status == "done" for o in outcomes)
         log(f"[{finished}/{len(specs)} done, {clock}] {describe_outcome(outcome, sweep)}")
 

@@ -31,6 +31,7 @@ from multicrane.benchmark.runstate import (
     count_states,
     sweep_states,
 )
+from multicrane.cli import progress
 
 EXAMPLES = """\
 examples:
@@ -269,7 +270,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         }
 
     try:
-        outcome = run_sweep(sweep, backend)
+        with progress.bar(total=len(sweep.runs()), desc=f"sweep {sweep.name}") as advance:
+            outcome = run_sweep(sweep, backend, advance=advance)
     except SweepError:
         raise  # refused before anything ran
     except BaseException:
