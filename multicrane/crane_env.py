@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from textwrap import indent
 from typing import Any
 
 import numpy as np
@@ -14,6 +15,7 @@ from multicrane.observation import Observer
 from multicrane.render import render_ansi
 from multicrane.scenario import Scenario, load_scenario
 from multicrane.simulator import NOBODY, Simulator
+from multicrane.transitions import table_text
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
 
 ENV_VERSION = 0
@@ -64,6 +66,8 @@ class MultiCraneEnv(ParallelEnv):
     ``"ansi"``).
 
     **Version history.** v0: first release.
+
+    **Component states** (``multicrane.transitions``; pre-built components start assembled):
     """
 
     metadata = {
@@ -185,10 +189,11 @@ class MultiCraneEnv(ParallelEnv):
         sim = self.sim
         claimable = sim.claimable_components()
         if self.auto:
-            ready = [c for c in sim.held if c != NOBODY and sim.status[c] == _INITIAL]
+            status = sim.state.status
+            ready = [c for c in sim.state.held if c != NOBODY and status[c] == _INITIAL]
         else:
             ready = claimable
-        self.observer.update(ready)
+        self.observer.update(sim.take_changed(), ready)
         self._masks = list(sim.action_masks())
         return {
             a: {"observation": self.observer.observe(i), "action_mask": self._masks[i]}
@@ -212,6 +217,9 @@ class MultiCraneEnv(ParallelEnv):
 
     def close(self) -> None:
         pass
+
+
+MultiCraneEnv.__doc__ += "\n" + indent(table_text(), "    ") + "\n"
 
 
 def describe_action(action: int) -> str:

@@ -151,7 +151,7 @@ class PrioritizedPlanner:
         sim = self.sim
         self._move_of = {d: m for m, d in enumerate(sim.move_delta)}
         self._deltas = list(sim.move_delta)
-        self._walls = sim._static.reshape(-1) == WALL
+        self._walls = sim.site.static == WALL
         self._sim_id = id(sim)
 
     def reset(self) -> None:
