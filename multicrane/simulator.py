@@ -245,8 +245,16 @@ class Simulator:
         recheck = self._recheck
         if recheck:
             claimable = self._claimable
+            # ``claimable(c)`` inlined: this runs for every component a step touched.
+            status, holder, pickup = self._status, self.state.holder, self.state.pickup
+            kind, has_ready, fits = self.site.kind, self._has_ready, self.fits
             for c in recheck:
-                if self.claimable(c):
+                if (
+                    status[c] == _INITIAL
+                    and holder[c] == NOBODY
+                    and fits(c, pickup[c])
+                    and (kind[c] != _BEAM or has_ready[c])
+                ):
                     claimable.add(c)
                 else:
                     claimable.discard(c)
