@@ -207,7 +207,7 @@ class MultiCraneEnv(ParallelEnv):
         return {a: self._masks[i] for i, a in enumerate(self.possible_agents)}
 
     def state(self) -> np.ndarray:
-        """The global state: the occupancy grid (padded; see ``multicrane.simulator``)."""
+        """The global state: the occupancy grid (padded; see ``multicrane.site``)."""
         return self.sim.occ.reshape(self.sim.shape).copy()
 
     def render(self) -> str | None:

@@ -11,8 +11,16 @@ copies one back in place (``Simulator.restore``), so arrays bound elsewhere stay
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+from multicrane import geometry
+from multicrane.site import FREE, NOBODY, Site
+from multicrane.types import Status
+
+if TYPE_CHECKING:
+    from multicrane.start import Start
 
 _ARRAYS = ("occ", "status", "moves", "holder", "filled", "filled_by")
 _LISTS = ("cells", "held", "assembling", "pass_over")
@@ -47,6 +55,56 @@ class SiteState:
     n_assembled: int  # assembled components, pre-built included
     n_prebuilt: int  # pre-built components (fixed for the episode)
     step_count: int  # steps taken this episode
+
+    @classmethod
+    def at_start(cls, site: Site, start: Start, n_cranes: int) -> SiteState:
+        """The state at the start of an episode: components where ``start`` puts them
+        (pre-built ones assembled on their targets, the others initial in the yard)."""
+        scenario = site.scenario
+        n = site.n_components
+        occ = site.static.copy()
+        status = np.full(n, Status.INITIAL, dtype=np.int8)
+        filled = np.full(n, NOBODY, dtype=np.int16)
+        filled_by = np.full(n, NOBODY, dtype=np.int16)
+        prebuilt = np.zeros(n, dtype=bool)
+        cells: list[list[int]] = [[] for _ in range(n)]
+        pickup: list[list[int]] = [[] for _ in range(n)]
+        for i, c in enumerate(scenario.components):
+            t = start.prebuilt_target[i]
+            if t >= 0:  # pre-built: assembled from the start, not a transition
+                cells[i] = list(site.target_cells[t])
+                status[i] = Status.ASSEMBLED
+                prebuilt[i] = True
+                filled[i] = t
+                filled_by[t] = i
+            else:
+                pose = start.initial[i]
+                assert pose is not None
+                cells[i] = site.lin_pose(pose)
+                pickup[i] = site.lin_pose(geometry.pickup_pose(c, scenario.beam_lift_z, pose))
+            for j in cells[i]:
+                assert occ[j] == FREE, "the loader and the start draw guarantee free cells"
+                occ[j] = i + 1
+        n_prebuilt = int(prebuilt.sum())
+        return cls(
+            occ=occ,
+            status=status,
+            moves=np.zeros(n, dtype=np.int32),
+            holder=np.full(n, NOBODY, dtype=np.int16),
+            filled=filled,
+            filled_by=filled_by,
+            cells=cells,
+            prebuilt=prebuilt,
+            pickup=pickup,
+            held=[NOBODY] * n_cranes,
+            assembling=[0] * n_cranes,
+            pass_over=[False] * n_cranes,
+            pointer=0,
+            passed_over=set(),
+            n_assembled=n_prebuilt,
+            n_prebuilt=n_prebuilt,
+            step_count=0,
+        )
 
     def copy(self) -> SiteState:
         """An independent copy (the episode's fixed values are shared, not copied)."""
