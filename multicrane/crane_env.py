@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from textwrap import indent
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,7 @@ from multicrane.render import render_ansi
 from multicrane.scenario import Scenario
 from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
+from multicrane.transitions import table_text
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
 
 ENV_VERSION = 0
@@ -65,6 +67,8 @@ class MultiCraneEnv(ParallelEnv):
     ``"ansi"``).
 
     **Version history.** v0: first release.
+
+    **Component states** (``multicrane.transitions``; pre-built components start assembled):
     """
 
     metadata = {
@@ -186,10 +190,11 @@ class MultiCraneEnv(ParallelEnv):
         sim = self.sim
         claimable = sim.claimable_components()
         if self.auto:
-            ready = [c for c in sim.held if c != NOBODY and sim.status[c] == _INITIAL]
+            status = sim.state.status
+            ready = [c for c in sim.state.held if c != NOBODY and status[c] == _INITIAL]
         else:
             ready = claimable
-        self.observer.update(ready)
+        self.observer.update(sim.take_changed(), ready)
         self._masks = list(sim.action_masks())
         return {
             a: {"observation": self.observer.observe(i), "action_mask": self._masks[i]}
@@ -203,7 +208,7 @@ class MultiCraneEnv(ParallelEnv):
         return {a: self._masks[i] for i, a in enumerate(self.possible_agents)}
 
     def state(self) -> np.ndarray:
-        """The global state: the occupancy grid (padded; see ``multicrane.simulator``)."""
+        """The global state: the occupancy grid (padded; see ``multicrane.site``)."""
         return self.sim.occ.reshape(self.sim.shape).copy()
 
     def render(self) -> str | None:
@@ -213,6 +218,9 @@ class MultiCraneEnv(ParallelEnv):
 
     def close(self) -> None:
         pass
+
+
+MultiCraneEnv.__doc__ += "\n" + indent(table_text(), "    ") + "\n"
 
 
 def describe_action(action: int) -> str:

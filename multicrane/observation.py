@@ -1,4 +1,4 @@
-"""The multi-agent observer: one flat float32 vector per crane, fixed shape per scenario.
+"""The observation builder: one flat float32 vector per crane, fixed shape per scenario.
 
 Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening):
 
@@ -10,7 +10,7 @@ Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening)
    1   components in the yard (initial)
    2   components ready to pick up (claimable now; in automatic mode: assigned)
    3   components in transit
-   4   placed components (arrived or assembled, pre-built included)
+   4   components at their target (arrived or assembled, pre-built included)
    5   free targets
    6   components in transit past the move limit
    7   this crane's component
@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from multicrane.simulator import NOBODY, Simulator
+from multicrane.simulator import NOBODY, WALL, Simulator
 from multicrane.types import Kind, Status
 
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
@@ -48,7 +48,7 @@ COMPONENT_FEATURES = 14
 CRANE_FEATURES = 9
 
 # Bits of the cell grid; the first seven are also the shared channels, in this order.
-OBSTACLE, INITIAL, READY, IN_TRANSIT, PLACED, FREE_TARGET, OVER_LIMIT = range(N_SHARED)
+OBSTACLE, INITIAL, READY, IN_TRANSIT, AT_TARGET, FREE_TARGET, OVER_LIMIT = range(N_SHARED)
 ANY_TARGET = 7  # a target cell, free or filled (never changes)
 MINE, MY_TARGETS = N_SHARED, N_SHARED + 1
 
@@ -118,7 +118,8 @@ class ObservationLayout:
 
 
 class Observer:
-    """Builds every crane's observation from a Simulator, updating only what changed."""
+    """Builds every crane's observation from a Simulator's public state, updating only what
+    changed (the environment hands it ``Simulator.take_changed()``); it never writes to it."""
 
     def __init__(self, sim: Simulator, planes: PlaneSpec = MULTI_AGENT_PLANES):
         self.sim = sim
@@ -155,7 +156,10 @@ class Observer:
         # Per component: (ready targets, obs indices, values) of its MY_TARGETS plane.
         self._my_targets: dict[int, tuple[list[int], np.ndarray, np.ndarray]] = {}
         self._assembly_steps = sim.scenario.assembly_steps
-        self._limit = max(sim.move_limit, 1)
+        self._move_limit = sim.site.move_limit
+        self._limit = max(self._move_limit, 1)
+        self._kind = sim.site.kind
+        self._n_components = sim.site.n_components
 
     def __getstate__(self) -> dict:
         # A memoryview and two views into the template: rebuilt on unpickling (a copied
@@ -199,14 +203,13 @@ class Observer:
         self.template = np.zeros(self.layout.size, dtype=np.float32)
         self._bind_views()
         self._dirty_columns: set[int] = set()
-        obstacles = np.flatnonzero(sim._static.reshape(-1) == -1).tolist()
+        obstacles = np.flatnonzero(sim.site.static == WALL).tolist()
         self._paint(obstacles, 0, 1 << OBSTACLE)
         self._painted: list[tuple[list[int], int]] = [([], 0)] * sim.n_components
         self._targets_free = [True] * sim.n_components
         for t in range(sim.n_components):
             self._paint([], 0, (1 << FREE_TARGET) | (1 << ANY_TARGET), sim.target_cells[t])
         self._ready: set[int] = set()
-        self.update(sim.claimable_components(), full=True)
 
     def _paint(
         self, cells: list[int], bits: int, new_bits: int, new_cells: list[int] | None = None
@@ -226,21 +229,20 @@ class Observer:
                 bm[i] |= new_bits
                 dirty.add(xy[j])
 
-    def _component_bits(self, c: int, ready: bool) -> int:
-        sim = self.sim
-        status = sim._status[c]
+    def _component_bits(self, c: int, status: int, ready: bool) -> int:
         if status == _INITIAL:
             return (1 << INITIAL) | ((1 << READY) if ready else 0)
         if status == _IN_TRANSIT:
-            over = (1 << OVER_LIMIT) if sim.moves[c] > sim.move_limit else 0
+            over = (1 << OVER_LIMIT) if self.sim.state.moves[c] > self._move_limit else 0
             return (1 << IN_TRANSIT) | over
-        return 1 << PLACED
+        return 1 << AT_TARGET
 
     def _paint_component(self, c: int, ready: bool) -> None:
-        sim = self.sim
+        st = self.sim.state
         old_cells, old_bits = self._painted[c]
-        cells = sim.cells[c]
-        bits = self._component_bits(c, ready)
+        cells = st.cells[c]
+        status = int(st.status[c])
+        bits = self._component_bits(c, status, ready)
         byte, bm, xy, dirty = self._byte, self._bits, self._xy, self._dirty_columns
         keep = ~old_bits & 0xFF
         for j in old_cells:  # every component cell lies inside the site
@@ -251,33 +253,40 @@ class Observer:
             dirty.add(xy[j])
         self._painted[c] = (cells, bits)
         # The component table row (the "held by this crane" column is per crane).
-        status = sim._status[c]
         self.table[c] = (
             status == _INITIAL,
             status == _IN_TRANSIT,
             status == _ARRIVED,
             status == _ASSEMBLED,
             ready,
-            sim.holder[c] != NOBODY,
+            st.holder[c] != NOBODY,
             0.0,
-            sim.kind[c] == _BEAM,
+            self._kind[c] == _BEAM,
             *self._scaled[cells[0]],
             *self._scaled[cells[-1]],
         )
 
-    def update(self, ready: list[int], full: bool = False) -> None:
-        """Bring the shared part up to date after a step (``ready``: components to mark)."""
+    def update(self, changed: set[int], ready: list[int], full: bool = False) -> None:
+        """Bring the shared part up to date after a reset or a step.
+
+        ``changed``: the components whose cells or status changed (``Simulator.take_changed``;
+        every component after a reset); ``ready``: the components to mark ready; ``full``:
+        repaint every component whatever ``changed`` says. Reads the simulator, changes nothing.
+        """
         sim = self.sim
         ready_now = set(ready)
-        changed = set(range(sim.n_components)) if full else sim.dirty | (ready_now ^ self._ready)
+        if full:
+            changed = set(range(sim.site.n_components))
+        else:
+            changed = changed | (ready_now ^ self._ready)
         self._ready = ready_now
+        filled, target_cells = sim.state.filled, sim.site.target_cells
         for c in changed:
             self._paint_component(c, c in ready_now)
-            t = int(sim.filled[c])  # a target is filled only when a component arrives at it
+            t = int(filled[c])  # a target is filled only when a component arrives at it
             if t >= 0 and self._targets_free[t]:
-                self._paint(sim.target_cells[t], 1 << FREE_TARGET, 0)
+                self._paint(target_cells[t], 1 << FREE_TARGET, 0)
                 self._targets_free[t] = False
-        sim.dirty.clear()
         if self._dirty_columns:
             idx = np.fromiter(self._dirty_columns, dtype=np.intp, count=len(self._dirty_columns))
             has = (self.bits[idx][:, :, None] & self._masks) != 0
@@ -298,11 +307,12 @@ class Observer:
     def observe(self, crane: int) -> np.ndarray:
         """A fresh array (the caller may keep it) with this crane's observation."""
         sim = self.sim
+        st = sim.state
         obs = self.template.copy()
-        comp = sim.held[crane]
+        comp = st.held[crane]
         if comp != NOBODY:
             own = self._own_start
-            for p, z in self._footprint(sim.cells[comp]):
+            for p, z in self._footprint(st.cells[comp]):
                 obs[own + p * N_OWN] = z
             ready = sim.ready_targets(comp)
             cached = self._my_targets.get(comp)
@@ -311,22 +321,22 @@ class Observer:
                 self._my_targets[comp] = cached
             obs[cached[1]] = cached[2]
             obs[self._components_start + comp * COMPONENT_FEATURES + 6] = 1.0
-            status = sim._status[comp]
-            moves = int(sim.moves[comp])
+            status = int(st.status[comp])
+            moves = int(st.moves[comp])
             held = [
                 1.0,
                 status == _IN_TRANSIT,
                 status == _ARRIVED,
                 min(moves / self._limit, 1.0),
-                moves > sim.move_limit,
+                moves > self._move_limit,
             ]
         else:
             held = [0.0] * 5
         obs[self._crane] = (
             *held,
-            sim.assembling[crane] / self._assembly_steps,
-            sim.pass_over[crane],
-            sim.n_placed / sim.n_components,
-            min(sim.step_count / self.step_limit, 1.0),
+            st.assembling[crane] / self._assembly_steps,
+            st.pass_over[crane],
+            st.n_assembled / self._n_components,
+            min(st.step_count / self.step_limit, 1.0),
         )
         return obs

@@ -11,13 +11,13 @@ from gymnasium import spaces
 
 from multicrane.observation import (
     ANY_TARGET,
+    AT_TARGET,
     HEIGHT,
     IN_TRANSIT,
     INITIAL,
     MARK,
     OBSTACLE,
     OVER_LIMIT,
-    PLACED,
     Observer,
     PlaneSpec,
 )
@@ -37,10 +37,10 @@ PAPER_PLANES = PlaneSpec(
     masks=(
         1 << ANY_TARGET,
         (1 << OBSTACLE) | (1 << INITIAL),
-        (1 << IN_TRANSIT) | (1 << PLACED),
+        (1 << IN_TRANSIT) | (1 << AT_TARGET),
         1 << ANY_TARGET,
         1 << OVER_LIMIT,
-        1 << PLACED,
+        1 << AT_TARGET,
     ),
     values=(MARK, HEIGHT, HEIGHT, HEIGHT, MARK, MARK),
     normalise=False,
@@ -134,6 +134,7 @@ class PaperAssemblyEnv(gym.Env):
         super().reset(seed=seed)
         self.sim.reset(self.np_random)
         self.observer.reset(self.scenario.step_limit)
+        self.observer.update(self.sim.take_changed(), ())
         return self._observation(), self._info(())
 
     def step(self, action):
@@ -148,7 +149,7 @@ class PaperAssemblyEnv(gym.Env):
         reward, _, _ = step_reward(sim, out)
         terminated = sim.done
         truncated = not terminated and sim.step_count >= self.scenario.step_limit
-        self.observer.update(())
+        self.observer.update(sim.take_changed(), ())
         info = self._info(out.events)
         if terminated or truncated:
             info["is_success"] = terminated

@@ -29,7 +29,7 @@ def render_ansi(sim: Simulator) -> str:
     target_at = sim.target_at.reshape(sim.shape)
     foundations = set(sim.scenario.foundations)
     lines = [
-        f"step {sim.step_count}: {sim.n_placed}/{sim.n_components} assembled; "
+        f"step {sim.step_count}: {sim.n_assembled}/{sim.n_components} assembled; "
         + ", ".join(_crane_text(sim, c) for c in range(sim.n_cranes)),
         LEGEND,
     ]

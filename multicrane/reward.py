@@ -32,18 +32,18 @@ def step_reward(sim: Simulator, out: StepOutcome) -> tuple[float, list[int], lis
     progress_by = out.assembled_by + out.pass_over_by
     over = sim.over_limit()
     r = team_reward(
-        sim.scenario.reward, len(progress_by), sim.n_placed, sim.k, sim.done, bool(over)
+        sim.scenario.reward, len(progress_by), sim.state.n_assembled, sim.k, sim.done, bool(over)
     )
     return r, progress_by, over
 
 
 def team_reward(
-    spec: RewardSpec, n_progress: int, n_placed: int, k: int, complete: bool, over_limit: bool
+    spec: RewardSpec, n_progress: int, n_assembled: int, k: int, complete: bool, over_limit: bool
 ) -> float:
     if complete:
         return spec.completion
     if n_progress:
-        return float(n_progress * n_placed)
+        return float(n_progress * n_assembled)
     if over_limit:
         return -spec.over_limit_cost
     return -spec.step_cost / (k + 1)

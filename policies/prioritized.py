@@ -14,43 +14,17 @@ assemble ``7``.
     while env.agents:
         observations, *_ = env.step(planner(observations))
 
-**Positions and time.** A component's position is its first cell's linear index in the
-simulator's padded grid; a move adds ``sim.move_delta[m]``. Time ``t`` is the simulator's
-step count: the state at ``t`` is the one after step ``t``, and the actions chosen at
-decision time ``T`` are applied in step ``T + 1``.
+**Paths and reservations** (``multicrane.reservations``): a planned move is never blocked,
+whatever order the cranes act in. A claim lifts the component to its pick-up pose in the
+claim step, so the pose must be free of reservations then; the search starts there. A
+component in transit with no plan (after a failed search) holds its cells for ever until it
+gets one; no new claims are made meanwhile.
 
-**Why plans never collide, whatever the order the cranes act in.** In each step the cranes
-act one after another in a random order, each seeing the site as the earlier ones left it.
-So a component may not enter, at ``t``, a cell that another component occupies at ``t``
-*or at* ``t - 1`` (no "following" into a cell vacated in the same step, no swaps): for any
-two components A and B and any ``t``, ``cells_A(t)`` and ``cells_B(t - 1)`` are disjoint,
-and so are ``cells_A(t)`` and ``cells_B(t)``. A move from ``P`` (at ``t - 1``) to ``Q``
-(at ``t``) therefore checks ``Q`` against the reservations at ``t - 1`` and ``t`` and ``P``
-against those at ``t``. Under that rule every planned move finds its cells free whether the
-other cranes have acted yet in the step or not, so a planned move is never blocked.
-
-**Reservations.** Walls, obstacles, components lying in the yard and arrived or assembled
-components form the *base* (a fit mask per component shape, by numpy). The table holds the
-components in transit: their planned positions, step by step, and from the arrival on their
-goal pose for ever (an arrived component stays where it is: it is assembled in place). A
-claim lifts the component to its pick-up pose in the claim step, so the pose must be free
-of reservations at the decision time and in the claim step; the path search then starts
-there. A component in transit with no plan (after a failed search) holds its cells for ever
-until it gets one; no new claims are made meanwhile.
-
-**Targets.** With interchangeable targets a component may fill any free compatible target,
-and it arrives automatically whenever its cells cover a ready one. Paths therefore never
-enter the pose of another compatible target that is, or may become during the path, ready
-(its supports are filled or are the goals of other plans): those poses are treated as
-walls, as ``paths.field_from`` treats its ``stops``. A path enters its goal only once no
-other reservation touches the goal's cells from then on.
-
-**Search.** A* over (position, time) states: wait or one of the six moves per step, cost
-one per step, heuristic the breadth-first distance to the goal around walls, obstacles and
-placed components (a ``multicrane.paths``-style array BFS, cached until a component arrives;
-admissible, since yard components and components in transit only add detours). A time cap
-(shortest length + ``slack``) and an expansion cap bound each search; a failed search means
-"not now": the crane waits and tries again at the next decision.
+**Targets and search.** A component arrives whenever its cells cover a ready compatible
+target, so paths never enter the pose of another compatible target that is, or may become
+during the path, ready (``reservations.stop_poses``). A failed search
+(``reservations.space_time_search``) means "not now": the crane waits and tries again at the
+next decision.
 
 **Assignment and replanning.** Ready pairs (claimable component, free ready target not
 already the goal of a plan) are ranked and taken greedily, each idle crane getting the best
@@ -72,37 +46,21 @@ one is found), so that the component does not arrive there by accident.
 
 from __future__ import annotations
 
-import heapq
-from dataclasses import dataclass
-
-import numpy as np
-
-from multicrane.paths import breadth_first, fits_everywhere
-from multicrane.simulator import FREE, NOBODY, WALL, Simulator
+from multicrane.reservations import (
+    INF,
+    Plan,
+    ReservationTable,
+    ShapeCache,
+    goal_position,
+    manhattan,
+    shape_of,
+    space_time_search,
+    stop_poses,
+)
+from multicrane.simulator import NOBODY, Simulator
 from multicrane.types import ASSEMBLE, CLAIM_BASE, WAIT, Status
 
-INF = 1 << 40  # "for ever" in the reservation table
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
-
-
-@dataclass
-class _Plan:
-    """One component's path: ``positions[i]`` at time ``t0 + i``; it arrives at the end."""
-
-    comp: int
-    crane: int
-    target: int
-    t0: int
-    positions: list[int]
-    claim: bool  # the crane claims the component in step t0 (positions[0]: pick-up pose)
-
-    @property
-    def arrival(self) -> int:
-        return self.t0 + len(self.positions) - 1
-
-    def at(self, t: int) -> int:
-        i = t - self.t0
-        return self.positions[i if i < len(self.positions) else -1]
 
 
 class PrioritizedPlanner:
@@ -151,21 +109,16 @@ class PrioritizedPlanner:
         sim = self.sim
         self._move_of = {d: m for m, d in enumerate(sim.move_delta)}
         self._deltas = list(sim.move_delta)
-        self._walls = sim._static.reshape(-1) == WALL
         self._sim_id = id(sim)
 
     def reset(self) -> None:
         """Forget every plan (called automatically at the start of an episode)."""
-        self.plans: dict[int, _Plan] = {}
+        self.plans: dict[int, Plan] = {}
         self._seq: dict[int, int] = {}  # comp -> plan creation number (the priority)
         self._counter = 0
         self._last_t: int | None = None
         self._cached: dict | None = None
-        self._base_key: bytes | None = None
-        self._base_free: np.ndarray | None = None
-        self._fit: dict[tuple[int, ...], bytes] = {}
-        self._h_cache: dict[tuple, list[int]] = {}
-        self._h_key: bytes | None = None
+        self._shapes = ShapeCache(self.sim)
         self._force_replan = False
 
     # -- the policy call -------------------------------------------------------------------
@@ -266,130 +219,31 @@ class PrioritizedPlanner:
             return plan.arrival
         return -1
 
-    def _new_plan(self, plan: _Plan) -> None:
+    def _new_plan(self, plan: Plan) -> None:
         self.plans[plan.comp] = plan
         if plan.comp not in self._seq:
             self._counter += 1
             self._seq[plan.comp] = self._counter
 
-    # -- reservation table ---------------------------------------------------------------------
-
-    def _reservations(self, T: int) -> dict[int, list[tuple[int, int, int]]]:
-        """Cell -> [(from, to, component)] for every component in transit, from time T on."""
-        res: dict[int, list[tuple[int, int, int]]] = {}
-        sim = self.sim
-        for comp in range(sim.n_components):
-            if sim.status[comp] != _IN_TRANSIT:
-                continue
-            plan = self.plans.get(comp)
-            if plan is None:
-                self._reserve_parked(res, comp, T)
-            else:
-                self._reserve_plan(res, plan, T)
-        for plan in self.plans.values():
-            if plan.claim and sim.status[plan.comp] == _INITIAL:
-                self._reserve_plan(res, plan, T)
-        return res
+    def _reservations(self, T: int) -> ReservationTable:
+        return ReservationTable.of_plans(self.sim, self.plans, T)
 
     def _rel(self, comp: int) -> tuple[int, ...]:
-        sim = self.sim
-        cells = sim.cells[comp] if sim.status[comp] == _IN_TRANSIT else sim.pickup[comp]
-        return tuple(j - cells[0] for j in cells)
+        return shape_of(self.sim, comp)
 
-    def _reserve_parked(self, res: dict, comp: int, T: int) -> None:
-        for j in self.sim.cells[comp]:
-            res.setdefault(j, []).append((T, INF, comp))
+    def _reserve_plan(self, res: ReservationTable, plan: Plan, T: int) -> None:
+        res.reserve_plan(plan, self._rel(plan.comp), T)
 
-    def _reserve_plan(self, res: dict, plan: _Plan, T: int) -> None:
-        rel = self._rel(plan.comp)
-        pos = plan.positions
-        i = max(0, T - plan.t0)
-        n = len(pos)
-        while i < n:
-            k = i
-            while k + 1 < n and pos[k + 1] == pos[i]:
-                k += 1
-            end = INF if k == n - 1 else plan.t0 + k
-            start = plan.t0 + i
-            for r in rel:
-                res.setdefault(pos[i] + r, []).append((start, end, plan.comp))
-            i = k + 1
-
-    @staticmethod
-    def _unreserve(res: dict, comp: int) -> None:
-        for cell in list(res):
-            lst = [iv for iv in res[cell] if iv[2] != comp]
-            if lst:
-                res[cell] = lst
-            else:
-                del res[cell]
-
-    @staticmethod
-    def _conflict(res: dict, cells, lo: int, hi: int, me: int) -> bool:
-        for c in cells:
-            lst = res.get(c)
-            if lst:
-                for a, b, o in lst:
-                    if o != me and a <= hi and b >= lo:
-                        return True
-        return False
-
-    # -- base fit masks and the heuristic ----------------------------------------------------------
-
-    def _base_ok(self, rel: tuple[int, ...]) -> bytes:
-        """Positions where a component of this shape fits the base (no component in transit)."""
-        sim = self.sim
-        key = sim.status.tobytes()
-        if key != self._base_key:
-            free = sim.occ == FREE
-            for comp in range(sim.n_components):
-                if sim.status[comp] == _IN_TRANSIT:
-                    free[sim.cells[comp]] = True
-            self._base_key, self._base_free, self._fit = key, free, {}
-        ok = self._fit.get(rel)
-        if ok is None:
-            ok = fits_everywhere(self._base_free, rel).tobytes()
-            self._fit[rel] = ok
-        return ok
-
-    def _heuristic(self, rel: tuple[int, ...], goal: int) -> list[int]:
-        """Breadth-first moves to ``goal`` over walls and placed components (-1: none)."""
-        sim = self.sim
-        key = (sim.status >= _ARRIVED).tobytes()
-        if key != self._h_key:
-            self._h_key, self._h_cache = key, {}
-        h = self._h_cache.get((rel, goal))
-        if h is None:
-            free = ~self._walls
-            for comp in range(sim.n_components):
-                if sim.status[comp] >= _ARRIVED:
-                    free[sim.cells[comp]] = False
-            h = breadth_first(fits_everywhere(free, rel), [goal], self._deltas).tolist()
-            self._h_cache[(rel, goal)] = h
-        return h
+    # -- geometry ------------------------------------------------------------------------------
 
     def _goal(self, rel: tuple[int, ...], target: int) -> int | None:
         """The position at which a component of this shape covers the target exactly."""
-        tc = sorted(self.sim.target_cells[target])
-        srel = sorted(rel)
-        start = tc[0] - srel[0]
-        if [start + r for r in srel] == tc:
-            return start
-        return None
+        return goal_position(rel, self.sim.target_cells[target])
 
     def _stops(self, comp: int, rel: tuple[int, ...], target: int) -> set[int]:
         """Poses of other compatible targets that are or may become ready during a path."""
-        sim = self.sim
         planned = {p.target for c, p in self.plans.items() if c != comp}
-        out = set()
-        for t in sim.compatible[comp]:
-            if t == target or sim.filled_by[t] != NOBODY:
-                continue
-            if all(sim.filled_by[s] != NOBODY or s in planned for s in sim.target_supports[t]):
-                g = self._goal(rel, t)
-                if g is not None:
-                    out.add(g)
-        return out
+        return stop_poses(self.sim, comp, rel, target, planned)
 
     def _taken_targets(self) -> set[int]:
         return {p.target for p in self.plans.values()}
@@ -397,95 +251,24 @@ class PrioritizedPlanner:
     # -- planning ------------------------------------------------------------------------------
 
     def _search(
-        self,
-        comp: int,
-        rel: tuple[int, ...],
-        start: int,
-        t_start: int,
-        goal: int,
-        stops: set[int],
-        res: dict,
-    ) -> list[int] | None:
-        """Space-time A*: positions from ``t_start`` (at ``start``) to the arrival at ``goal``."""
+        self, comp: int, rel: tuple[int, ...], start: int, t_start: int, goal: int,
+        stops: set[int], res: ReservationTable,
+    ) -> list[int] | None:  # fmt: skip
+        """Space-time A* (counted in ``stats``): positions from ``t_start`` to the arrival."""
         self.stats["searches"] += 1
-        ok = self._base_ok(rel)
-        h = self._heuristic(rel, goal)
-        h0 = h[start]
-        if h0 < 0 or not ok[goal]:
-            self.stats["failed"] += 1
-            return None
-        # The goal is held for ever from the arrival: no reservation may touch it after.
-        free_from = t_start
-        for r in rel:
-            for _, b, o in res.get(goal + r, ()):
-                if o != comp:
-                    if b >= INF:
-                        self.stats["failed"] += 1
-                        return None
-                    free_from = max(free_from, b + 1)
-        if start == goal:
-            if t_start >= free_from:
-                return [start]
-            self.stats["failed"] += 1
-            return None
-        t_cap = t_start + h0 + self.slack
-        conflict = self._conflict
-        deltas = self._deltas
-        parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, t_start): None}
-        heap = [(h0, h0, t_start, start)]
-        expansions = 0
-        limit = self.max_expansions
-        found = None
-        while heap:
-            _, hp, t, p = heapq.heappop(heap)
-            expansions += 1
-            if expansions > limit:
-                break
-            if t >= t_cap:
-                continue
-            t1 = t + 1
-            here = [p + r for r in rel]
-            if conflict(res, here, t1, t1, comp):
-                continue  # someone enters these cells at t1: it had to leave before
-            key = (p, t1)
-            if key not in parent:
-                parent[key] = (p, t)
-                heapq.heappush(heap, (t1 - t_start + hp, hp, t1, p))
-            for d in deltas:
-                q = p + d
-                if not ok[q] or q in stops:
-                    continue
-                hq = h[q]
-                if hq < 0:
-                    continue
-                key = (q, t1)
-                if key in parent:
-                    continue
-                if conflict(res, [q + r for r in rel], t, t1, comp):
-                    continue
-                if q == goal:
-                    if t1 < free_from:
-                        continue
-                    parent[key] = (p, t)
-                    found = key
-                    break
-                parent[key] = (p, t)
-                heapq.heappush(heap, (t1 - t_start + hq, hq, t1, q))
-            if found is not None:
-                break
+        sim = self.sim
+        ok = self._shapes.base_ok(sim, rel)
+        h = self._shapes.heuristic(sim, rel, goal)
+        path, expansions = space_time_search(
+            res, comp, rel, start, t_start, goal, stops, ok, h,
+            self._deltas, self.slack, self.max_expansions,
+        )  # fmt: skip
         self.stats["expansions"] += expansions
-        if found is None:
+        if path is None:
             self.stats["failed"] += 1
-            return None
-        path = []
-        node = found
-        while node is not None:
-            path.append(node[0])
-            node = parent[node]
-        path.reverse()
         return path
 
-    def _plan_transit(self, comp: int, T: int, res: dict) -> bool:
+    def _plan_transit(self, comp: int, T: int, res: ReservationTable) -> bool:
         """Plan a component in transit from where it is; reserve the plan on success."""
         sim = self.sim
         rel = self._rel(comp)
@@ -498,19 +281,19 @@ class PrioritizedPlanner:
                 continue
             goal = self._goal(rel, t)
             if goal is not None:
-                options.append((_manhattan(here, sim.cell(goal)), t, goal))
+                options.append((manhattan(here, sim.cell(goal)), t, goal))
         options.sort()
         for _, t, goal in options[:3]:
             path = self._search(comp, rel, start, T, goal, self._stops(comp, rel, t), res)
             if path is not None:
-                self._unreserve(res, comp)
-                plan = _Plan(comp, int(sim.holder[comp]), t, T, path, claim=False)
+                res.release(comp)
+                plan = Plan(comp, int(sim.holder[comp]), t, T, path, claim=False)
                 self._new_plan(plan)
                 self._reserve_plan(res, plan, T)
                 return True
         return False
 
-    def _plan_parked(self, comps: list[int], T: int, res: dict) -> list[int]:
+    def _plan_parked(self, comps: list[int], T: int, res: ReservationTable) -> list[int]:
         """Plan components in transit that have no plan, in order; returns those still parked."""
         left = []
         for comp in comps:
@@ -518,7 +301,7 @@ class PrioritizedPlanner:
                 left.append(comp)
         return left
 
-    def _replan_all(self, T: int, res: dict) -> None:
+    def _replan_all(self, T: int, res: ReservationTable) -> None:
         """Drop every plan of a component in transit and plan them all again, oldest first."""
         sim = self.sim
         transit = [c for c in range(sim.n_components) if sim.status[c] == _IN_TRANSIT]
@@ -533,7 +316,7 @@ class PrioritizedPlanner:
                 break
             order = left
 
-    def _repair(self, T: int, res: dict, new: set[int]) -> None:
+    def _repair(self, T: int, res: ReservationTable, new: set[int]) -> None:
         """Replan the older plans whose path now crosses a target pose that may become ready
         (new goals can make a target ready during the path); keep the old plan if none."""
         sim = self.sim
@@ -546,16 +329,18 @@ class PrioritizedPlanner:
             if not stops.intersection(rest):
                 continue
             self.stats["repairs"] += 1
-            saved = {c: list(v) for c, v in res.items()}
-            self._unreserve(res, comp)
-            self._reserve_parked(res, comp, T)
+            saved = res.copy()
+            res.release(comp)
+            res.hold(sim.cells[comp], T, INF, comp)
             del self.plans[comp]
             if not self._plan_transit(comp, T, res):
                 res.clear()
                 res.update(saved)
                 self.plans[comp] = plan
 
-    def _assign(self, idle: list[int], candidates: list[int], T: int, res: dict) -> dict[int, int]:
+    def _assign(
+        self, idle: list[int], candidates: list[int], T: int, res: ReservationTable
+    ) -> dict[int, int]:
         """Give idle cranes ready components, cheapest first; returns crane -> component."""
         sim = self.sim
         taken = self._taken_targets()
@@ -569,7 +354,7 @@ class PrioritizedPlanner:
                     continue
                 goal = self._goal(rel, t)
                 if goal is not None:
-                    pairs.append((_manhattan(here, sim.cell(goal)), comp, t, goal, rel))
+                    pairs.append((manhattan(here, sim.cell(goal)), comp, t, goal, rel))
         if self.rank == "list":
             pairs.sort(key=lambda p: (self._list_rank[p[1]], p[0], p[2]))
         else:
@@ -585,7 +370,7 @@ class PrioritizedPlanner:
             if comp in used_c or t in used_t:
                 continue
             pick = sim.pickup[comp]
-            if self._conflict(res, pick, T, T + 1, comp):
+            if res.conflict(pick, T, T + 1, comp):
                 continue  # the pick-up pose is not free in the claim step
             stops = self._stops(comp, rel, t)
             start = pick[0]
@@ -596,7 +381,7 @@ class PrioritizedPlanner:
             if path is None:
                 continue
             crane = idle.pop(0)
-            plan = _Plan(comp, crane, t, T + 1, path, claim=True)
+            plan = Plan(comp, crane, t, T + 1, path, claim=True)
             self._new_plan(plan)
             self._reserve_plan(res, plan, T)
             claims[crane] = comp
@@ -604,10 +389,3 @@ class PrioritizedPlanner:
             used_t.add(t)
             self.stats["claims"] += 1
         return claims
-
-
-# -- array helpers ------------------------------------------------------------------------------
-
-
-def _manhattan(a: tuple[int, int, int], b: tuple[int, int, int]) -> int:
-    return abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2])

@@ -77,7 +77,7 @@ class Checker:
         self.shape = sim.shape
         self.sx = self.shape[1] * self.shape[2]
         self.sy = self.shape[2]
-        self.wall = (sim._static == WALL).reshape(-1)
+        self.wall = sim.site.static == WALL
         self.lengths = np.array(sim.length, dtype=np.int64)
         self.total = int(self.lengths.sum())
         self.starts = np.concatenate([[0], np.cumsum(self.lengths)[:-1]]).astype(np.int64)
@@ -123,7 +123,7 @@ class Checker:
         assert set(np.unique(status).tolist()) <= {INITIAL, ASSEMBLED}
         assert np.array_equal(status == ASSEMBLED, sim.prebuilt)
         assert sim.step_count == 0
-        assert sim.n_placed == sim.n_prebuilt == int(sim.prebuilt.sum())
+        assert sim.n_assembled == sim.n_prebuilt == int(sim.prebuilt.sum())
         assert not any(sim.assembling)
         if not self.auto:
             assert all(c == NOBODY for c in sim.held)
@@ -178,9 +178,9 @@ class Checker:
         status = sim.status
         assert status.min() >= 0 and status.max() <= ASSEMBLED
         assert VALID_STATUS[status].all(), f"unknown status values {np.unique(status)}"
-        assert sim.n_placed == int(np.count_nonzero(status == ASSEMBLED))
-        assert sim.done == (sim.n_placed == C)
-        assert sim.k == sim.n_placed - sim.n_prebuilt
+        assert sim.n_assembled == int(np.count_nonzero(status == ASSEMBLED))
+        assert sim.done == (sim.n_assembled == C)
+        assert sim.k == sim.n_assembled - sim.n_prebuilt
         # Cranes and holders.
         held = np.array(sim.held, dtype=np.int64)
         holder = sim.holder
@@ -302,7 +302,7 @@ class Checker:
             ready = [c for c in sim.held if c != NOBODY and sim.status[c] == INITIAL]
         else:
             ready = sim.claimable_components()
-        fresh.update(ready, full=True)
+        fresh.update(set(), ready, full=True)
         for i, agent in enumerate(env.possible_agents):
             mine = obs[agent]["observation"]
             expected = fresh.observe(i)
@@ -354,7 +354,7 @@ class Checker:
         if sim.done:
             expected = self.spec.completion
         elif progress:
-            expected = float(progress * sim.n_placed)
+            expected = float(progress * sim.n_assembled)
         elif over:
             expected = -self.spec.over_limit_cost
         else:

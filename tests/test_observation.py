@@ -7,6 +7,7 @@ import pytest
 
 import multicrane
 from multicrane.observation import (
+    AT_TARGET,
     COMPONENT_FEATURES,
     FREE_TARGET,
     IN_TRANSIT,
@@ -15,7 +16,6 @@ from multicrane.observation import (
     MY_TARGETS,
     OBSTACLE,
     OVER_LIMIT,
-    PLACED,
     READY,
 )
 from multicrane.simulator import Simulator
@@ -46,7 +46,7 @@ def reference_planes(sim: Simulator, ready: list[int], crane: int) -> np.ndarray
             if sim.moves[c] > sim.move_limit:
                 top(OVER_LIMIT, cells)
         else:
-            top(PLACED, cells)
+            top(AT_TARGET, cells)
     for t in range(sim.n_components):
         if sim.filled_by[t] < 0:
             top(FREE_TARGET, [sim.cell(j) for j in sim.target_cells[t]])

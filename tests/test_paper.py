@@ -998,7 +998,7 @@ def test_plan_from_the_middle_of_an_episode(config):
     # "The environment is left as it was."
     assert all(
         np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y
-        for x, y in zip(before, after, strict=True)
+        for x, y in zip(before.values(), after.values(), strict=True)
     )
     total = 0.0
     for a in p.actions:

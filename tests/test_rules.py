@@ -205,7 +205,7 @@ def test_arrival_at_own_target_then_assembly():
     assert mask[ASSEMBLE] and not mask[: int(WAIT)].any()  # an arrived component never moves
     out = sim.step([ASSEMBLE])
     assert types(out) == [EventType.ASSEMBLY_STARTED, EventType.ASSEMBLED]
-    assert sim.status[C1] == Status.ASSEMBLED and sim.held[0] == -1 and sim.n_placed == 1
+    assert sim.status[C1] == Status.ASSEMBLED and sim.held[0] == -1 and sim.n_assembled == 1
 
 
 @pytest.mark.parametrize(("interchangeable", "arrives"), [(False, False), (True, True)])
@@ -305,7 +305,7 @@ def test_auto_pass_over_of_a_prebuilt_entry():
         "target = [[5, 2, 1], [5, 2, 4]]\nprebuilt = true",
     )
     sim = make(text, auto=True)
-    assert sim.held[0] == C2 and sim.n_placed == 1
+    assert sim.held[0] == C2 and sim.n_assembled == 1
     drive(sim, C2, C2_TO_TARGET)
     assert sim.pass_over[0] and sim.held[0] == -1
     out = sim.step([int(X_PLUS)])  # the action is ignored
@@ -395,7 +395,7 @@ PAPER = RewardSpec()
 
 
 @pytest.mark.parametrize(
-    ("n_progress", "n_placed", "k", "complete", "over", "expected"),
+    ("n_progress", "n_assembled", "k", "complete", "over", "expected"),
     [
         (0, 0, 0, False, False, -1.0),  # plain step: -1 / (k + 1)
         (0, 2, 2, False, False, -1 / 3),
@@ -406,8 +406,8 @@ PAPER = RewardSpec()
         (2, 4, 4, False, False, 8.0),  # two assemblies in one step (several cranes)
     ],
 )
-def test_team_reward(n_progress, n_placed, k, complete, over, expected):
-    assert team_reward(PAPER, n_progress, n_placed, k, complete, over) == pytest.approx(expected)
+def test_team_reward(n_progress, n_assembled, k, complete, over, expected):
+    assert team_reward(PAPER, n_progress, n_assembled, k, complete, over) == pytest.approx(expected)
 
 
 def test_reward_split_adds_up():

@@ -1,0 +1,203 @@
+"""Legality: what each crane may do now (queries and action masks), kept incrementally.
+
+``Legality`` is the half of ``multicrane.simulator.Simulator`` that judges and never changes
+the state: target readiness, claimability, blocked moves and the action masks. The masks are
+computed by the same functions the step uses to judge actions. Target readiness changes only
+when a component arrives or is assembled; claimability only where a move touched a pick-up
+pose; both are cached and recomputed then (``_refresh_targets``, ``_recheck``).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from multicrane.site import FREE, NOBODY
+from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, Kind, Status
+
+if TYPE_CHECKING:
+    from multicrane.site import Site
+    from multicrane.state import SiteState
+
+# Plain ints for the hot path: reading an IntEnum member costs a class __getattr__ in 3.11.
+_INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
+_BEAM = int(Kind.BEAM)
+
+
+class Legality:
+    """Queries over ``self.site`` and ``self.state`` (set by the Simulator that inherits it)."""
+
+    site: Site
+    state: SiteState
+    auto: bool
+    n_cranes: int
+    _occ: memoryview  # the state's occupancy and statuses (see Simulator._bind)
+    _status: memoryview
+
+    # -- queries shared by the rules and the masks -------------------------------------------
+
+    def _watch_pickups(self) -> None:
+        """Claimability bookkeeping: which components' pick-up poses cover each cell."""
+        self._watch: dict[int, list[int]] = {}
+        self._watched_pickup = self.state.pickup
+        for i, cells in enumerate(self.state.pickup):
+            for j in cells:
+                self._watch.setdefault(j, []).append(i)
+
+    @property
+    def done(self) -> bool:
+        return self.state.n_assembled == self.site.n_components
+
+    @property
+    def k(self) -> int:
+        """Components assembled during this episode (pre-built ones excluded)."""
+        return self.state.n_assembled - self.state.n_prebuilt
+
+    def fits(self, comp: int, cells: list[int]) -> bool:
+        """True when every cell is free or already held by ``comp``."""
+        occ = self._occ
+        own = comp + 1
+        for j in cells:
+            v = occ[j]
+            if v != FREE and v != own:
+                return False
+        return True
+
+    def _target_ready_now(self, t: int) -> bool:
+        """A target can be filled: it is free and all its supports are assembled."""
+        filled_by = self.state.filled_by
+        if filled_by[t] != NOBODY:
+            return False
+        for s in self.site.target_supports[t]:
+            f = filled_by[s]
+            if f == NOBODY or self._status[f] != _ASSEMBLED:
+                return False
+        return True
+
+    def _refresh_targets(self) -> None:
+        """Recompute target readiness; it changes only when a component arrives or is
+        assembled, so the step calls this then and every query reads the cache."""
+        n = self.site.n_components
+        self.target_ready = [self._target_ready_now(t) for t in range(n)]
+        ready = self.target_ready
+        compatible = self.site.compatible
+        self._has_ready = [any(ready[t] for t in compatible[c]) for c in range(n)]
+        self._recheck.update(range(n))
+
+    def ready_targets(self, comp: int) -> list[int]:
+        """Targets this component could arrive at now."""
+        ready = self.target_ready
+        return [t for t in self.site.compatible[comp] if ready[t]]
+
+    def can_lift(self, comp: int) -> bool:
+        return self._status[comp] == _INITIAL and self.fits(comp, self.state.pickup[comp])
+
+    def claimable(self, comp: int) -> bool:
+        """An initial, unclaimed component whose pick-up pose is free and that has somewhere
+        to go (a beam with no supported free target waits, as in the paper)."""
+        return (
+            self._status[comp] == _INITIAL
+            and self.state.holder[comp] == NOBODY
+            and self.fits(comp, self.state.pickup[comp])
+            and (self.site.kind[comp] != _BEAM or self._has_ready[comp])
+        )
+
+    def claimable_components(self) -> list[int]:
+        """Every component a crane may claim now, in index order.
+
+        Kept incrementally: ``_place`` marks the components whose pick-up pose it touched,
+        and a change of target readiness marks them all; only those are judged again.
+        """
+        if self.auto:
+            return []
+        recheck = self._recheck
+        if recheck:
+            claimable = self._claimable
+            # ``claimable(c)`` inlined: this runs for every component a step touched.
+            status, holder, pickup = self._status, self.state.holder, self.state.pickup
+            kind, has_ready, fits = self.site.kind, self._has_ready, self.fits
+            for c in recheck:
+                if (
+                    status[c] == _INITIAL
+                    and holder[c] == NOBODY
+                    and fits(c, pickup[c])
+                    and (kind[c] != _BEAM or has_ready[c])
+                ):
+                    claimable.add(c)
+                else:
+                    claimable.discard(c)
+            recheck.clear()
+            self._claimable_list = sorted(self._claimable)
+        return self._claimable_list
+
+    def _from_cells(self, comp: int) -> list[int]:
+        """Where a move starts from: an initial component is judged from its pick-up pose."""
+        st = self.state
+        return st.cells[comp] if self._status[comp] == _IN_TRANSIT else st.pickup[comp]
+
+    def move_ok(self, comp: int, move: int) -> bool:
+        """The move is not blocked. An initial component is judged from its pick-up pose."""
+        cells = self._from_cells(comp)
+        d = self.site.move_delta[move]
+        occ = self._occ
+        own = comp + 1
+        for j in cells:
+            v = occ[j + d]
+            if v != FREE and v != own:
+                return False
+        return True
+
+    def action_mask(self, crane: int) -> np.ndarray:
+        """Legal actions of one crane (int8, length ``n_actions``); wait is always legal."""
+        return self.action_masks()[crane]
+
+    def action_masks(self) -> np.ndarray:
+        """Legal actions of every crane, one int8 row each (a fresh array)."""
+        st = self.state
+        masks = np.zeros((self.n_cranes, self.site.n_actions), dtype=np.int8)
+        masks[:, WAIT] = 1
+        claims = None
+        assembling, pass_over, held = st.assembling, st.pass_over, st.held
+        for crane in range(self.n_cranes):
+            if assembling[crane] or pass_over[crane]:
+                continue
+            row = masks[crane]
+            comp = held[crane]
+            if comp == NOBODY:
+                if not self.auto:
+                    if claims is None:
+                        claims = [CLAIM_BASE + c for c in self.claimable_components()]
+                    row[claims] = 1
+                continue
+            status = self._status[comp]
+            if status == _ARRIVED:
+                row[ASSEMBLE] = 1
+            elif status == _IN_TRANSIT or (status == _INITIAL and self.can_lift(comp)):
+                row[:N_MOVES] = self.moves_ok(comp)
+        return masks
+
+    def moves_ok(self, comp: int) -> list[bool]:
+        """``move_ok`` for the six moves at once."""
+        cells = self._from_cells(comp)
+        occ = self._occ
+        own = comp + 1
+        out = []
+        for d in self.site.move_delta:
+            for j in cells:
+                v = occ[j + d]
+                if v != FREE and v != own:
+                    out.append(False)
+                    break
+            else:
+                out.append(True)
+        return out
+
+    def over_limit(self) -> list[int]:
+        """Cranes holding a component that has made more moves than the move limit."""
+        moves, limit = self.state.moves, self.site.move_limit
+        return [
+            crane
+            for crane, comp in enumerate(self.state.held)
+            if comp != NOBODY and moves[comp] > limit
+        ]
