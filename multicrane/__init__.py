@@ -34,6 +34,11 @@ def env(scenario: str | Path | Scenario = "e2s2", n_cranes: int | None = None, *
     return parallel_to_aec(parallel_env(scenario, n_cranes=n_cranes, **options))
 
 
+# PettingZoo's convention names the unwrapped AEC environment ``raw_env``; ``env`` adds no
+# wrappers here, so the two are the same.
+raw_env = env
+
+
 def _register() -> None:
     """Register every shipped scenario with PettingZoo (``pettingzoo.make("parallel",
     "multicrane/e3s2-v0")``, and ``"aec"``) and the 16 paper configurations with Gymnasium
@@ -74,5 +79,6 @@ __all__ = [
     "env",
     "load_scenario",
     "parallel_env",
+    "raw_env",
     "scenario_names",
 ]

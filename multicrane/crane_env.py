@@ -101,11 +101,11 @@ class MultiCraneEnv(ParallelEnv):
         n = self.sim.n_cranes
         self.possible_agents = [f"crane_{i}" for i in range(n)]
         self.agents: list[str] = []
-        self._action_space = spaces.Discrete(self.sim.n_actions)
+        self._action_space = spaces.Discrete(self.sim.site.n_actions)
         self._observation_space = spaces.Dict(
             {
                 "observation": spaces.Box(0.0, 1.0, (self.observer.layout.size,), np.float32),
-                "action_mask": spaces.Box(0, 1, (self.sim.n_actions,), np.int8),
+                "action_mask": spaces.Box(0, 1, (self.sim.site.n_actions,), np.int8),
             }
         )
         self._rng: np.random.Generator | None = None
@@ -150,7 +150,7 @@ class MultiCraneEnv(ParallelEnv):
         complete = sim.done
         self.total_reward += r
 
-        truncated = not complete and sim.step_count >= self.step_limit
+        truncated = not complete and sim.state.step_count >= self.step_limit
         observations = self._observe()
         per_crane: list[list[Event]] = [[] for _ in range(n)]
         for e in out.events:
@@ -177,9 +177,9 @@ class MultiCraneEnv(ParallelEnv):
             if agent not in actions:
                 raise KeyError(f"step(): no action for {agent!r}; every crane acts every step")
             a = int(actions[agent])
-            if not 0 <= a < self.sim.n_actions:
+            if not 0 <= a < self.sim.site.n_actions:
                 raise ValueError(
-                    f"step(): {agent} sent action {a}, outside 0..{self.sim.n_actions - 1}"
+                    f"step(): {agent} sent action {a}, outside 0..{self.sim.site.n_actions - 1}"
                 )
             if self.strict and not self._masks[i][a]:
                 raise ValueError(f"step(): {agent} sent illegal action {a} ({describe_action(a)})")
@@ -209,7 +209,7 @@ class MultiCraneEnv(ParallelEnv):
 
     def state(self) -> np.ndarray:
         """The global state: the occupancy grid (padded; see ``multicrane.site``)."""
-        return self.sim.occ.reshape(self.sim.shape).copy()
+        return self.sim.state.occ.reshape(self.sim.site.shape).copy()
 
     def render(self) -> str | None:
         if self.render_mode == "ansi":

@@ -127,15 +127,15 @@ class Observer:
         self.plan = (X, Y)
         self.height = H
         self.spec = planes
-        self.layout = lay = ObservationLayout((X, Y), sim.n_components, planes.n)
+        self.layout = lay = ObservationLayout((X, Y), sim.site.n_components, planes.n)
         self._own_start = lay.own.start
         self._components_start = lay.components.start
         self._crane = lay.crane
         # Per padded linear cell index: the (x, y) plan index and the index of its bit byte
         # (-1 outside the site, the ground and the sky included).
-        xy = np.full(sim.shape, -1, dtype=np.int64)
+        xy = np.full(sim.site.shape, -1, dtype=np.int64)
         xy[1 : X + 1, 1 : Y + 1, 1 : H + 1] = np.arange(X * Y).reshape(X, Y, 1)
-        z = np.broadcast_to(np.arange(H + 2), sim.shape)
+        z = np.broadcast_to(np.arange(H + 2), sim.site.shape)
         self._xy = xy.reshape(-1).tolist()
         self._z = z.reshape(-1).tolist()
         self._byte = np.where(xy >= 0, xy * (H + 1) + z, -1).reshape(-1).tolist()
@@ -149,10 +149,10 @@ class Observer:
         # Per padded linear cell index: (x, y, z) divided by the site size (the table's nodes).
         scale = (1.0 / max(X - 1, 1), 1.0 / max(Y - 1, 1), 1.0 / H)
         self._scaled = [
-            tuple(v * f for v, f in zip(sim.cell(j), scale, strict=True))
-            for j in range(int(np.prod(sim.shape)))
+            tuple(v * f for v, f in zip(sim.site.cell(j), scale, strict=True))
+            for j in range(int(np.prod(sim.site.shape)))
         ]
-        self._target_footprint = [self._footprint(cells) for cells in sim.target_cells]
+        self._target_footprint = [self._footprint(cells) for cells in sim.site.target_cells]
         # Per component: (ready targets, obs indices, values) of its MY_TARGETS plane.
         self._my_targets: dict[int, tuple[list[int], np.ndarray, np.ndarray]] = {}
         self._assembly_steps = sim.scenario.assembly_steps
@@ -179,7 +179,7 @@ class Observer:
         self._bits = memoryview(self.bits.reshape(-1))
         self.planes = self.template[self.layout.shared].reshape(X * Y, self.spec.n)
         self.table = self.template[self.layout.components].reshape(
-            self.sim.n_components, COMPONENT_FEATURES
+            self.sim.site.n_components, COMPONENT_FEATURES
         )
 
     def _footprint(self, cells: list[int]) -> list[tuple[int, float]]:
@@ -205,10 +205,10 @@ class Observer:
         self._dirty_columns: set[int] = set()
         obstacles = np.flatnonzero(sim.site.static == WALL).tolist()
         self._paint(obstacles, 0, 1 << OBSTACLE)
-        self._painted: list[tuple[list[int], int]] = [([], 0)] * sim.n_components
-        self._targets_free = [True] * sim.n_components
-        for t in range(sim.n_components):
-            self._paint([], 0, (1 << FREE_TARGET) | (1 << ANY_TARGET), sim.target_cells[t])
+        self._painted: list[tuple[list[int], int]] = [([], 0)] * sim.site.n_components
+        self._targets_free = [True] * sim.site.n_components
+        for t in range(sim.site.n_components):
+            self._paint([], 0, (1 << FREE_TARGET) | (1 << ANY_TARGET), sim.site.target_cells[t])
         self._ready: set[int] = set()
 
     def _paint(

@@ -56,7 +56,7 @@ def plan(
     snap = env.sim.snapshot()
     try:
         value, actions = search.best()
-        if env.sim.step_count + len(actions) > env.scenario.step_limit:
+        if env.sim.state.step_count + len(actions) > env.scenario.step_limit:
             # The unconstrained optimum runs past the step limit: search again with the
             # step count in the state, so that truncation is accounted for exactly.
             search = _Search(env.sim, limit_aware=True)
@@ -87,27 +87,27 @@ class _Search:
     def key(self) -> tuple:
         sim = self.sim
         return (
-            sim.pointer,
-            sim.held[0],
-            sim.pass_over[0],
-            frozenset(sim.passed_over),
-            sim.status.tobytes(),
-            (sim.filled_by >= 0).tobytes(),
-            sim.step_count if self.limit_aware else 0,
+            sim.state.pointer,
+            sim.state.held[0],
+            sim.state.pass_over[0],
+            frozenset(sim.state.passed_over),
+            sim.state.status.tobytes(),
+            (sim.state.filled_by >= 0).tobytes(),
+            sim.state.step_count if self.limit_aware else 0,
         )
 
     def best(self) -> tuple[float, list[int]]:
         """The best return from the current state on, and the actions that achieve it."""
         sim = self.sim
-        if sim.done or sim.step_count >= self.limit:
+        if sim.done or sim.state.step_count >= self.limit:
             return 0.0, []
         key = self.key()
         if key in self.memo:
             return self.memo[key]
-        if sim.pass_over[0]:  # the action is ignored; any will do
+        if sim.state.pass_over[0]:  # the action is ignored; any will do
             result = self._follow([0])
         else:
-            comp = sim.held[0]
+            comp = sim.state.held[0]
             if comp == NOBODY:
                 raise RuntimeError("the crane has nothing to do; the scenario cannot be finished")
             result = None
@@ -120,7 +120,7 @@ class _Search:
                 ):
                     result = (value, actions)
             if result is None:  # no target reachable: the rest of the episode is waiting
-                result = self._follow([0] * (self.limit - sim.step_count))
+                result = self._follow([0] * (self.limit - sim.state.step_count))
         self.memo[key] = result
         return result
 
@@ -148,7 +148,7 @@ class _Search:
             out = sim.step([m])
             total += step_reward(sim, out)[0]
             taken.append(m)
-            if sim.done or sim.step_count >= self.limit:
+            if sim.done or sim.state.step_count >= self.limit:
                 break
         value, rest = self.best()
         sim.restore(snap)
@@ -162,9 +162,9 @@ def _replay(sim: Simulator, actions: list[int]) -> tuple[float, tuple[tuple[str,
     for a in actions:
         total += step_reward(sim, sim.step([a]))[0]
     filled = tuple(
-        (ids[c], ids[int(sim.filled[c])])
-        for c in range(sim.n_components)
-        if sim.filled[c] >= 0 and not sim.prebuilt[c]
+        (ids[c], ids[int(sim.state.filled[c])])
+        for c in range(sim.site.n_components)
+        if sim.state.filled[c] >= 0 and not sim.state.prebuilt[c]
     )
     return total, filled, sim.done
 

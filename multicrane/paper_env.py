@@ -148,7 +148,7 @@ class PaperAssemblyEnv(gym.Env):
         out = sim.step([a])
         reward, _, _ = step_reward(sim, out)
         terminated = sim.done
-        truncated = not terminated and sim.step_count >= self.scenario.step_limit
+        truncated = not terminated and sim.state.step_count >= self.scenario.step_limit
         self.observer.update(sim.take_changed(), ())
         info = self._info(out.events)
         if terminated or truncated:
@@ -163,7 +163,7 @@ class PaperAssemblyEnv(gym.Env):
         return obs.reshape(-1)
 
     def _info(self, events) -> dict[str, Any]:
-        comp = self.sim.held[0]
+        comp = self.sim.state.held[0]
         return {
             "events": tuple(events),
             "component": self.scenario.components[comp].id if comp != NOBODY else None,

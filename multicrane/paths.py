@@ -21,7 +21,11 @@ UNREACHABLE = -1
 def current_cells(sim: Simulator, comp: int) -> list[int]:
     """Where the component is, or where its next move starts from: an initial component
     is judged from its pick-up pose (the automatic mode lifts it with its first move)."""
-    return sim.cells[comp] if sim.status[comp] != Status.INITIAL else sim.pickup[comp]
+    return (
+        sim.state.cells[comp]
+        if sim.state.status[comp] != Status.INITIAL
+        else sim.state.pickup[comp]
+    )
 
 
 def fits_everywhere(free: np.ndarray, offsets) -> np.ndarray:
@@ -72,7 +76,7 @@ def breadth_first(
 
 def fit_mask(sim: Simulator, comp: int, shape: list[int]) -> np.ndarray:
     """Boolean per position: the component, shaped as ``shape``, fits there."""
-    free = (sim.occ == FREE) | (sim.occ == comp + 1)
+    free = (sim.state.occ == FREE) | (sim.state.occ == comp + 1)
     return fits_everywhere(free, [j - shape[0] for j in shape])
 
 
@@ -82,7 +86,7 @@ def goal_positions(sim: Simulator, comp: int, targets: list[int]) -> list[int]:
     rel = sorted(j - shape[0] for j in shape)
     goals = []
     for t in targets:
-        cells = sorted(sim.target_cells[t])
+        cells = sorted(sim.site.target_cells[t])
         start = cells[0] - rel[0]
         if sorted(start + r for r in rel) == cells:
             goals.append(start)
@@ -92,7 +96,7 @@ def goal_positions(sim: Simulator, comp: int, targets: list[int]) -> list[int]:
 def distance_field(sim: Simulator, comp: int, targets: list[int]) -> np.ndarray:
     """Moves from every position to the nearest goal (``UNREACHABLE`` where none)."""
     ok = fit_mask(sim, comp, current_cells(sim, comp))
-    return breadth_first(ok, goal_positions(sim, comp, targets), sim.move_delta)
+    return breadth_first(ok, goal_positions(sim, comp, targets), sim.site.move_delta)
 
 
 def next_move(sim: Simulator, comp: int, dist: np.ndarray) -> int | None:
@@ -102,7 +106,7 @@ def next_move(sim: Simulator, comp: int, dist: np.ndarray) -> int | None:
     if d <= 0:
         return None
     for move in range(N_MOVES):
-        if dist[here + sim.move_delta[move]] == d - 1:
+        if dist[here + sim.site.move_delta[move]] == d - 1:
             return move
     return None
 
@@ -117,7 +121,7 @@ def field_from(sim: Simulator, comp: int, stops: list[int]) -> np.ndarray:
     ok = fit_mask(sim, comp, shape)
     through = ok.copy()
     through[stops] = False
-    return breadth_first(ok, [shape[0]], sim.move_delta, through)
+    return breadth_first(ok, [shape[0]], sim.site.move_delta, through)
 
 
 def path_to(sim: Simulator, dist: np.ndarray, goal: int, stops: set[int]) -> list[int]:
@@ -129,7 +133,7 @@ def path_to(sim: Simulator, dist: np.ndarray, goal: int, stops: set[int]) -> lis
         raise ValueError("goal unreachable")
     while d > 0:
         for move in range(N_MOVES):
-            prev = here - sim.move_delta[move]
+            prev = here - sim.site.move_delta[move]
             if dist[prev] == d - 1 and (d == 1 or prev not in stops):
                 moves.append(move)
                 here = prev

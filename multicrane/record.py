@@ -195,10 +195,10 @@ def final_state(env: MultiCraneEnv) -> dict[str, Any]:
     """The end state that a re-simulation must reproduce: statuses, cells, held, step."""
     sim = env.sim
     return {
-        "status": [int(s) for s in sim.status],
-        "cells": [sorted(sim.cell(j) for j in cells) for cells in sim.cells],
-        "held": [int(h) for h in sim.held],
-        "step": int(sim.step_count),
+        "status": [int(s) for s in sim.state.status],
+        "cells": [sorted(sim.site.cell(j) for j in cells) for cells in sim.state.cells],
+        "held": [int(h) for h in sim.state.held],
+        "step": int(sim.state.step_count),
     }
 
 
@@ -240,7 +240,7 @@ def record_episode(
         "return": m["return"],
         "steps": m["steps"],
         "success": m["success"],
-        "final_status": [int(x) for x in env.sim.status],
+        "final_status": [int(x) for x in env.sim.state.status],
     }
     return rec
 

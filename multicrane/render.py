@@ -25,11 +25,11 @@ LEGEND = (
 def render_ansi(sim: Simulator) -> str:
     """Every non-empty layer from the top down; x grows to the right, y upwards."""
     X, Y, H = sim.scenario.size
-    grid = sim.occ.reshape(sim.shape)
-    target_at = sim.target_at.reshape(sim.shape)
+    grid = sim.state.occ.reshape(sim.site.shape)
+    target_at = sim.site.target_at.reshape(sim.site.shape)
     foundations = set(sim.scenario.foundations)
     lines = [
-        f"step {sim.step_count}: {sim.n_assembled}/{sim.n_components} assembled; "
+        f"step {sim.state.step_count}: {sim.state.n_assembled}/{sim.site.n_components} assembled; "
         + ", ".join(_crane_text(sim, c) for c in range(sim.n_cranes)),
         LEGEND,
     ]
@@ -44,10 +44,10 @@ def render_ansi(sim: Simulator) -> str:
                     ch = "#"
                 elif v > 0:
                     comp = v - 1
-                    ch = STATE_CHARS[Status(int(sim.status[comp]))]
-                    if sim.holder[comp] >= 0:
+                    ch = STATE_CHARS[Status(int(sim.state.status[comp]))]
+                    if sim.state.holder[comp] >= 0:
                         ch = ch.upper()
-                elif t >= 0 and sim.filled_by[t] < 0:
+                elif t >= 0 and sim.state.filled_by[t] < 0:
                     ch = "+"
                 elif z == 1 and (x, y) in foundations:
                     ch = "F"
@@ -62,11 +62,11 @@ def render_ansi(sim: Simulator) -> str:
 
 
 def _crane_text(sim: Simulator, crane: int) -> str:
-    comp = sim.held[crane]
-    if sim.pass_over[crane]:
+    comp = sim.state.held[crane]
+    if sim.state.pass_over[crane]:
         return f"crane_{crane}: pass-over"
     if comp < 0:
         return f"crane_{crane}: idle"
     cid = sim.scenario.components[comp].id
-    state = Status(int(sim.status[comp])).name.lower()
-    return f"crane_{crane}: {cid} ({state}, {int(sim.moves[comp])} moves)"
+    state = Status(int(sim.state.status[comp])).name.lower()
+    return f"crane_{crane}: {cid} ({state}, {int(sim.state.moves[comp])} moves)"

@@ -2,7 +2,7 @@
 
 A component's *position* is its first cell's linear index in the simulator's padded grid and
 its *shape* (``rel``) the offsets of its cells from that one; a move adds
-``sim.move_delta[m]``. Time ``t`` is the simulator's step count: the state at ``t`` is the one
+``sim.site.move_delta[m]``. Time ``t`` is the simulator's step count: the state at ``t`` is the one
 after step ``t``, and actions chosen at decision time ``T`` are applied in step ``T + 1``.
 
 **Why reserved paths never collide, whatever the order the cranes act in.** In each step the

@@ -151,13 +151,13 @@ def _multi_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]
     if on_reset is not None:
         on_reset(env)
     while env.agents:
-        held_before = [c != NOBODY for c in sim.held]
+        held_before = [c != NOBODY for c in sim.state.held]
         actions = tally.timed(policy, observations)
         observations, rewards, terminations, truncations, infos = env.step(actions)
         reward = float(rewards[first])
         tally.steps += 1
         tally.total += reward
-        tally.busy += sum(1 for i in range(n) if held_before[i] or sim.held[i] != NOBODY)
+        tally.busy += sum(1 for i in range(n) if held_before[i] or sim.state.held[i] != NOBODY)
         for a in agents:
             tally.count(infos[a]["events"])
         if record or on_step is not None:
@@ -179,13 +179,13 @@ def _single_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any
     if on_reset is not None:
         on_reset(env)
     while True:
-        held_before = sim.held[0] != NOBODY
+        held_before = sim.state.held[0] != NOBODY
         action = tally.timed(policy, observation)
         observation, reward, terminated, truncated, info = env.step(action)
         reward = float(reward)
         tally.steps += 1
         tally.total += reward
-        tally.busy += 1 if held_before or sim.held[0] != NOBODY else 0
+        tally.busy += 1 if held_before or sim.state.held[0] != NOBODY else 0
         tally.count(info["events"])
         if record:
             tally.actions.append(int(action))

@@ -17,7 +17,6 @@ over the components whose cells or status changed since it was last called.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from operator import attrgetter
 
 import numpy as np
 
@@ -309,14 +308,3 @@ class Simulator(Legality):
             events.append(Event(st.step_count, crane, EventType.ASSIGNED, comp))
             return
 
-
-# Read-only views: ``sim.status`` is ``sim.state.status``, ``sim.shape`` is ``sim.site.shape``.
-_STATE_FIELDS = tuple(SiteState.__dataclass_fields__)
-_SITE_FIELDS = (
-    "shape", "move_delta", "n_components", "n_actions", "kind", "length", "move_limit",
-    "target_cells", "target_cellset", "target_supports", "compatible", "target_at", "lin", "cell",
-)  # fmt: skip
-for _owner, _names in (("state", _STATE_FIELDS), ("site", _SITE_FIELDS)):
-    for _name in _names:
-        setattr(Simulator, _name, property(attrgetter(f"{_owner}.{_name}")))
-del _owner, _names, _name

@@ -165,7 +165,7 @@ class LiveViewer:
         )  # fmt: skip
         rec.log("cranes/hooks", rr.Points3D(hooks))
         rec.log("cranes/cables", rr.LineStrips3D(cables))
-        n = env.sim.n_components
+        n = env.sim.site.n_components
         assembled = int((one.status[0] == int(Status.ASSEMBLED)).sum())
         rec.log("metrics/reward", rr.Scalars(reward))
         rec.log("metrics/return", rr.Scalars(one.rewards[0]))

@@ -56,10 +56,10 @@ class EpisodeCollector:
         # Cheap on purpose: the simulator replaces a moved component's cell list (it never
         # mutates one), so keeping references is enough; boxes are computed in ``boxes``.
         sim = self.env.sim
-        self.steps.append(sim.step_count)
-        self.status.append(sim.status.copy())
-        self.cells.append(list(sim.cells))
-        self.held.append(list(sim.held))
+        self.steps.append(sim.state.step_count)
+        self.status.append(sim.state.status.copy())
+        self.cells.append(list(sim.state.cells))
+        self.held.append(list(sim.state.held))
         self.rewards.append(reward)
         self.events.append(events)
 
@@ -67,13 +67,13 @@ class EpisodeCollector:
         """Box corners ``lo, hi`` (T, C, 3) of every component from step index ``start``."""
         sim = self.env.sim
         per_step = self.cells[start:]
-        T, n = len(per_step), sim.n_components
+        T, n = len(per_step), sim.site.n_components
         lo = np.empty((T, n, 3), dtype=np.float32)
         hi = np.empty((T, n, 3), dtype=np.float32)
         last: list = [None] * n
         lo_now = np.zeros((n, 3), dtype=np.float32)
         hi_now = np.zeros((n, 3), dtype=np.float32)
-        cell = sim.cell
+        cell = sim.site.cell
         for t, cells in enumerate(per_step):
             for i, c in enumerate(cells):
                 if c is not last[i]:
@@ -100,7 +100,7 @@ class EpisodeCollector:
         if static:
             log_static(rec, env.scenario, env.sim)
         steps = np.asarray(self.steps, dtype=np.int64)
-        T, n = len(steps), env.sim.n_components
+        T, n = len(steps), env.sim.site.n_components
         time = [rr.TimeColumn(TIMELINE, sequence=steps)]
         lo, hi = self.boxes()
         status = np.stack(self.status)

@@ -95,8 +95,8 @@ def log_static(rec, scenario: Scenario, sim) -> None:
             static=True,
         )  # fmt: skip
     boxes = []
-    for cells in sim.target_cells:
-        xyz = np.array([sim.cell(j) for j in cells], dtype=np.float32)
+    for cells in sim.site.target_cells:
+        xyz = np.array([sim.site.cell(j) for j in cells], dtype=np.float32)
         boxes.append(_box(xyz.min(axis=0) - (0, 0, 1), xyz.max(axis=0) + (1, 1, 0)))
     rec.log(
         "site/targets",

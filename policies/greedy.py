@@ -42,12 +42,12 @@ class GreedyPolicy:
         return actions
 
     def _act(self, sim: Simulator, crane: int, mask: np.ndarray, taken: set[int]) -> int:
-        if sim.assembling[crane] or sim.pass_over[crane]:
+        if sim.state.assembling[crane] or sim.state.pass_over[crane]:
             return WAIT
-        comp = sim.held[crane]
+        comp = sim.state.held[crane]
         if comp == NOBODY:
             return self._claim(sim, mask, taken)
-        if sim.status[comp] == Status.ARRIVED:
+        if sim.state.status[comp] == Status.ARRIVED:
             return ASSEMBLE if mask[ASSEMBLE] else WAIT
         move = self._step_towards_target(sim, comp)
         if move is not None and mask[move]:
@@ -99,10 +99,10 @@ class GreedyPolicy:
 
 def _crow_distance(sim: Simulator, comp: int) -> int:
     """Manhattan distance from the pick-up pose to the nearest ready target (a cheap guess)."""
-    here = sim.cell(sim.pickup[comp][0])
+    here = sim.site.cell(sim.state.pickup[comp][0])
     best = None
     for t in sim.ready_targets(comp):
-        there = sim.cell(sim.target_cells[t][0])
+        there = sim.site.cell(sim.site.target_cells[t][0])
         d = sum(abs(a - b) for a, b in zip(here, there, strict=True))
         best = d if best is None else min(best, d)
     return best if best is not None else 10**6

@@ -18,10 +18,10 @@ class PaperGreedyPolicy:
 
     def __call__(self, observation=None) -> int:
         sim = self.env.unwrapped.sim
-        comp = sim.held[0]
-        if sim.pass_over[0] or comp == NOBODY:
+        comp = sim.state.held[0]
+        if sim.state.pass_over[0] or comp == NOBODY:
             return 0  # the step's action is ignored
-        key = (comp, sim.step_count)
+        key = (comp, sim.state.step_count)
         if self._key is None or self._key[0] != comp or not self._moves:
             self._moves = self._plan(sim, comp)
         self._key = key

@@ -107,8 +107,8 @@ class PrioritizedPlanner:
 
     def _setup(self) -> None:
         sim = self.sim
-        self._move_of = {d: m for m, d in enumerate(sim.move_delta)}
-        self._deltas = list(sim.move_delta)
+        self._move_of = {d: m for m, d in enumerate(sim.site.move_delta)}
+        self._deltas = list(sim.site.move_delta)
         self._sim_id = id(sim)
 
     def reset(self) -> None:
@@ -128,7 +128,7 @@ class PrioritizedPlanner:
         if id(sim) != self._sim_id:
             self._setup()
             self.reset()
-        T = sim.step_count
+        T = sim.state.step_count
         if T == 0 or self._last_t is None or self._last_t > T:
             self.reset()
         elif self._last_t == T and self._cached is not None:
@@ -139,13 +139,15 @@ class PrioritizedPlanner:
 
         diverged = self._sync(T) or self._force_replan
         self._force_replan = False
-        status = sim.status
-        transit = [c for c in range(sim.n_components) if status[c] == _IN_TRANSIT]
+        status = sim.state.status
+        transit = [c for c in range(sim.site.n_components) if status[c] == _IN_TRANSIT]
         unplanned = [c for c in transit if c not in self.plans]
         idle = [
             crane
             for crane in range(sim.n_cranes)
-            if sim.held[crane] == NOBODY and not sim.assembling[crane] and not sim.pass_over[crane]
+            if sim.state.held[crane] == NOBODY
+            and not sim.state.assembling[crane]
+            and not sim.state.pass_over[crane]
         ]
         candidates = [c for c in sim.claimable_components() if c not in self.plans]
         claims: dict[int, int] = {}
@@ -176,12 +178,12 @@ class PrioritizedPlanner:
 
     def _action(self, crane: int, T: int, claims: dict[int, int]) -> int:
         sim = self.sim
-        if sim.assembling[crane] or sim.pass_over[crane]:
+        if sim.state.assembling[crane] or sim.state.pass_over[crane]:
             return WAIT
-        comp = sim.held[crane]
+        comp = sim.state.held[crane]
         if comp == NOBODY:
             return CLAIM_BASE + claims[crane] if crane in claims else WAIT
-        if sim.status[comp] == _ARRIVED:
+        if sim.state.status[comp] == _ARRIVED:
             return ASSEMBLE
         plan = self.plans.get(comp)
         if plan is None:
@@ -196,18 +198,20 @@ class PrioritizedPlanner:
         sim = self.sim
         diverged = False
         for comp, plan in list(self.plans.items()):
-            s = sim.status[comp]
+            s = sim.state.status[comp]
             if s == _INITIAL:
                 if plan.claim and plan.t0 > T:
                     continue  # claimed in the coming step
                 diverged = True  # the claim failed
                 del self.plans[comp]
             elif s == _IN_TRANSIT:
-                if plan.t0 > T or sim.cells[comp][0] != plan.at(T) or plan.arrival <= T:
+                if plan.t0 > T or sim.state.cells[comp][0] != plan.at(T) or plan.arrival <= T:
                     diverged = True
                     del self.plans[comp]
             else:  # arrived or assembled: as planned, or somewhere else
-                if sim.filled[comp] != plan.target or plan.arrival != self._arrived_at(comp, T):
+                if sim.state.filled[comp] != plan.target or plan.arrival != self._arrived_at(
+                    comp, T
+                ):
                     diverged = True
                 del self.plans[comp]
         return diverged
@@ -215,7 +219,7 @@ class PrioritizedPlanner:
     def _arrived_at(self, comp: int, T: int) -> int:
         """When an arrived component arrived (the plan's arrival if it did as planned)."""
         plan = self.plans[comp]
-        if self.sim.cells[comp][0] == plan.positions[-1] and plan.arrival <= T:
+        if self.sim.state.cells[comp][0] == plan.positions[-1] and plan.arrival <= T:
             return plan.arrival
         return -1
 
@@ -238,7 +242,7 @@ class PrioritizedPlanner:
 
     def _goal(self, rel: tuple[int, ...], target: int) -> int | None:
         """The position at which a component of this shape covers the target exactly."""
-        return goal_position(rel, self.sim.target_cells[target])
+        return goal_position(rel, self.sim.site.target_cells[target])
 
     def _stops(self, comp: int, rel: tuple[int, ...], target: int) -> set[int]:
         """Poses of other compatible targets that are or may become ready during a path."""
@@ -272,22 +276,22 @@ class PrioritizedPlanner:
         """Plan a component in transit from where it is; reserve the plan on success."""
         sim = self.sim
         rel = self._rel(comp)
-        start = sim.cells[comp][0]
+        start = sim.state.cells[comp][0]
         taken = self._taken_targets()
-        here = sim.cell(start)
+        here = sim.site.cell(start)
         options = []
         for t in sim.ready_targets(comp):
             if t in taken:
                 continue
             goal = self._goal(rel, t)
             if goal is not None:
-                options.append((manhattan(here, sim.cell(goal)), t, goal))
+                options.append((manhattan(here, sim.site.cell(goal)), t, goal))
         options.sort()
         for _, t, goal in options[:3]:
             path = self._search(comp, rel, start, T, goal, self._stops(comp, rel, t), res)
             if path is not None:
                 res.release(comp)
-                plan = Plan(comp, int(sim.holder[comp]), t, T, path, claim=False)
+                plan = Plan(comp, int(sim.state.holder[comp]), t, T, path, claim=False)
                 self._new_plan(plan)
                 self._reserve_plan(res, plan, T)
                 return True
@@ -304,7 +308,7 @@ class PrioritizedPlanner:
     def _replan_all(self, T: int, res: ReservationTable) -> None:
         """Drop every plan of a component in transit and plan them all again, oldest first."""
         sim = self.sim
-        transit = [c for c in range(sim.n_components) if sim.status[c] == _IN_TRANSIT]
+        transit = [c for c in range(sim.site.n_components) if sim.state.status[c] == _IN_TRANSIT]
         for c in transit:
             self.plans.pop(c, None)
         res.clear()
@@ -321,7 +325,7 @@ class PrioritizedPlanner:
         (new goals can make a target ready during the path); keep the old plan if none."""
         sim = self.sim
         for comp, plan in list(self.plans.items()):
-            if comp in new or plan.claim or sim.status[comp] != _IN_TRANSIT:
+            if comp in new or plan.claim or sim.state.status[comp] != _IN_TRANSIT:
                 continue
             rel = self._rel(comp)
             stops = self._stops(comp, rel, plan.target)
@@ -331,7 +335,7 @@ class PrioritizedPlanner:
             self.stats["repairs"] += 1
             saved = res.copy()
             res.release(comp)
-            res.hold(sim.cells[comp], T, INF, comp)
+            res.hold(sim.state.cells[comp], T, INF, comp)
             del self.plans[comp]
             if not self._plan_transit(comp, T, res):
                 res.clear()
@@ -346,15 +350,15 @@ class PrioritizedPlanner:
         taken = self._taken_targets()
         pairs = []
         for comp in candidates:
-            pick = sim.pickup[comp]
+            pick = sim.state.pickup[comp]
             rel = tuple(j - pick[0] for j in pick)
-            here = sim.cell(pick[0])
+            here = sim.site.cell(pick[0])
             for t in sim.ready_targets(comp):
                 if t in taken:
                     continue
                 goal = self._goal(rel, t)
                 if goal is not None:
-                    pairs.append((manhattan(here, sim.cell(goal)), comp, t, goal, rel))
+                    pairs.append((manhattan(here, sim.site.cell(goal)), comp, t, goal, rel))
         if self.rank == "list":
             pairs.sort(key=lambda p: (self._list_rank[p[1]], p[0], p[2]))
         else:
@@ -369,7 +373,7 @@ class PrioritizedPlanner:
                 break
             if comp in used_c or t in used_t:
                 continue
-            pick = sim.pickup[comp]
+            pick = sim.state.pickup[comp]
             if res.conflict(pick, T, T + 1, comp):
                 continue  # the pick-up pose is not free in the claim step
             stops = self._stops(comp, rel, t)

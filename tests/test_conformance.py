@@ -203,12 +203,16 @@ def test_fixed_start_scenarios_ignore_the_seed_for_the_yard(name):
     env = multicrane.parallel_env(name)
     env.reset(seed=0)
     sim = env.sim
-    initial = {c: list(sim.cells[c]) for c in range(sim.n_components) if not sim.prebuilt[c]}
+    initial = {
+        c: list(sim.state.cells[c])
+        for c in range(sim.site.n_components)
+        if not sim.state.prebuilt[c]
+    }
     for seed in range(1, 4):
         env.reset(seed=seed)
         for c, cells in initial.items():
-            if not env.sim.prebuilt[c]:
-                assert env.sim.cells[c] == cells, (name, seed, c)
+            if not env.sim.state.prebuilt[c]:
+                assert env.sim.state.cells[c] == cells, (name, seed, c)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -261,9 +265,9 @@ def test_make_aec_from_registry():
 def _expected_layers(sim) -> list[int]:
     """The layers render_ansi must show: those with anything but empty cells."""
     X, Y, H = sim.scenario.size
-    grid = sim.occ.reshape(sim.shape)[1 : X + 1, 1 : Y + 1, :]
-    target_at = sim.target_at.reshape(sim.shape)[1 : X + 1, 1 : Y + 1, :]
-    free_target = np.isin(target_at, np.flatnonzero(sim.filled_by < 0))
+    grid = sim.state.occ.reshape(sim.site.shape)[1 : X + 1, 1 : Y + 1, :]
+    target_at = sim.site.target_at.reshape(sim.site.shape)[1 : X + 1, 1 : Y + 1, :]
+    free_target = np.isin(target_at, np.flatnonzero(sim.state.filled_by < 0))
     busy = (grid != 0) | free_target
     layers = [z for z in range(H, 0, -1) if busy[:, :, z].any()]
     if sim.scenario.foundations and 1 not in layers:
@@ -294,7 +298,7 @@ def test_render_ansi(name):
         assert all(len(row) == X for row in rows)
         # Every component cell is drawn exactly once, as its state letter.
         drawn = sum(row.lower().count(ch) for row in rows for ch in "itab")
-        assert drawn == sum(len(cells) for cells in sim.cells)
+        assert drawn == sum(len(cells) for cells in sim.state.cells)
 
 
 def test_render_none_and_bad_mode():
@@ -322,10 +326,10 @@ def _sim_state(env):
     sim = env.sim
     return (
         env.state(),
-        sim.status.copy(),
-        sim.holder.copy(),
-        list(sim.held),
-        [list(c) for c in sim.cells],
+        sim.state.status.copy(),
+        sim.state.holder.copy(),
+        list(sim.state.held),
+        [list(c) for c in sim.state.cells],
     )
 
 
@@ -345,10 +349,10 @@ def test_strict_rejects_masked_action():
     with pytest.raises(ValueError, match=rf"crane_0\b.*\b{action}\b"):
         env.step({"crane_0": action})
     _assert_state_equal(before, _sim_state(env))
-    assert env.sim.step_count == 0
+    assert env.sim.state.step_count == 0
     # The environment is still usable with a legal action.
     env.step({"crane_0": WAIT})
-    assert env.sim.step_count == 1
+    assert env.sim.state.step_count == 1
 
 
 def test_strict_names_the_offending_agent_and_applies_nothing():
@@ -374,7 +378,7 @@ def test_non_strict_masked_action_is_a_recorded_no_op():
     for action in (Move.X_MINUS, Move.UP, ASSEMBLE):
         assert not env.action_masks()["crane_0"][action]
         before = _sim_state(env)
-        step_before = env.sim.step_count
+        step_before = env.sim.state.step_count
         _, _, _, _, infos = env.step({"crane_0": int(action)})
         _assert_state_equal(before, _sim_state(env))
         events = infos["crane_0"]["events"]
@@ -393,20 +397,20 @@ def test_non_strict_blocked_move_is_a_recorded_no_op():
     assert claims.size
     comp = int(claims[0])
     _, _, _, _, infos = env.step({"crane_0": CLAIM_BASE + comp})
-    assert env.sim.held[0] == comp
-    assert env.sim.status[comp] == Status.IN_TRANSIT
+    assert env.sim.state.held[0] == comp
+    assert env.sim.state.status[comp] == Status.IN_TRANSIT
     # Lower the component until the ground (or something else) stops it.
     for _ in range(env.sim.scenario.size[2] + 1):
         if not env.action_masks()["crane_0"][Move.DOWN]:
             break
         env.step({"crane_0": int(Move.DOWN)})
     assert not env.action_masks()["crane_0"][Move.DOWN]
-    assert env.sim.status[comp] == Status.IN_TRANSIT
+    assert env.sim.state.status[comp] == Status.IN_TRANSIT
     before = _sim_state(env)
-    moves_before = int(env.sim.moves[comp])
+    moves_before = int(env.sim.state.moves[comp])
     _, _, _, _, infos = env.step({"crane_0": int(Move.DOWN)})
     _assert_state_equal(before, _sim_state(env))
-    assert int(env.sim.moves[comp]) == moves_before
+    assert int(env.sim.state.moves[comp]) == moves_before
     types = [e.type for e in infos["crane_0"]["events"]]
     assert types == [EventType.BLOCKED]
     # The same move in strict mode raises.
@@ -427,7 +431,7 @@ def test_out_of_range_action_raises(strict):
     for bad in (n_actions, n_actions + 5, -1):
         with pytest.raises(ValueError, match="crane_1"):
             env.step({"crane_0": WAIT, "crane_1": bad})
-    assert env.sim.step_count == 0
+    assert env.sim.state.step_count == 0
 
 
 def test_missing_agent_raises_key_error():
@@ -437,7 +441,7 @@ def test_missing_agent_raises_key_error():
         env.step({"crane_0": WAIT, "crane_2": WAIT})
     with pytest.raises(KeyError):
         env.step({})
-    assert env.sim.step_count == 0
+    assert env.sim.state.step_count == 0
 
 
 def test_step_after_episode_end_raises():

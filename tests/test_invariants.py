@@ -71,14 +71,14 @@ class Checker:
         sim = env.sim
         self.sim = sim
         self.auto = sim.auto
-        self.C = sim.n_components
+        self.C = sim.site.n_components
         self.n = sim.n_cranes
         self.X, self.Y, self.H = sim.scenario.size
-        self.shape = sim.shape
+        self.shape = sim.site.shape
         self.sx = self.shape[1] * self.shape[2]
         self.sy = self.shape[2]
         self.wall = sim.site.static == WALL
-        self.lengths = np.array(sim.length, dtype=np.int64)
+        self.lengths = np.array(sim.site.length, dtype=np.int64)
         self.total = int(self.lengths.sum())
         self.starts = np.concatenate([[0], np.cumsum(self.lengths)[:-1]]).astype(np.int64)
         self.owner = np.repeat(np.arange(1, self.C + 1), self.lengths)
@@ -86,9 +86,9 @@ class Checker:
             [np.zeros(self.C), np.zeros(self.C), self.lengths - 1], axis=1
         ).astype(np.int64)
         self.edges = _edge_table(EDGES_AUTO if self.auto else EDGES_MANUAL)
-        self.shifts = {0, *sim.move_delta}
+        self.shifts = {0, *sim.site.move_delta}
         self.holdable = HOLDABLE_AUTO if self.auto else HOLDABLE_MANUAL
-        self.n_actions = sim.n_actions
+        self.n_actions = sim.site.n_actions
         self.obs_size = env.observation_layout.size
         self.spec = sim.scenario.reward
         self.events = Counter()
@@ -100,9 +100,11 @@ class Checker:
 
     def _cells(self) -> np.ndarray:
         sim = self.sim
-        assert [len(c) for c in sim.cells] == sim.length, "a component changed its length"
+        assert [len(c) for c in sim.state.cells] == sim.site.length, (
+            "a component changed its length"
+        )
         return np.fromiter(
-            (j for cells in sim.cells for j in cells), dtype=np.int64, count=self.total
+            (j for cells in sim.state.cells for j in cells), dtype=np.int64, count=self.total
         )
 
     def _decode(self, idx: np.ndarray) -> np.ndarray:
@@ -116,17 +118,17 @@ class Checker:
         sim = self.sim
         self.episodes += 1
         idx = self._cells()
-        # The vectorised decoding is sim.cell's.
+        # The vectorised decoding is sim.site.cell's.
         coords = self._decode(idx)
-        assert [tuple(int(v) for v in c) for c in coords] == [sim.cell(int(j)) for j in idx]
-        status = sim.status
+        assert [tuple(int(v) for v in c) for c in coords] == [sim.site.cell(int(j)) for j in idx]
+        status = sim.state.status
         assert set(np.unique(status).tolist()) <= {INITIAL, ASSEMBLED}
-        assert np.array_equal(status == ASSEMBLED, sim.prebuilt)
-        assert sim.step_count == 0
-        assert sim.n_assembled == sim.n_prebuilt == int(sim.prebuilt.sum())
-        assert not any(sim.assembling)
+        assert np.array_equal(status == ASSEMBLED, sim.state.prebuilt)
+        assert sim.state.step_count == 0
+        assert sim.state.n_assembled == sim.state.n_prebuilt == int(sim.state.prebuilt.sum())
+        assert not any(sim.state.assembling)
         if not self.auto:
-            assert all(c == NOBODY for c in sim.held)
+            assert all(c == NOBODY for c in sim.state.held)
         assert self.env.agents == self.env.possible_agents
         for agent in self.env.possible_agents:
             assert infos[agent]["events"] == ()
@@ -136,7 +138,7 @@ class Checker:
         self._check_observations(obs)
         self.prev_status = status.copy()
         self.prev_idx = idx
-        self.prev_filled = sim.filled.copy()
+        self.prev_filled = sim.state.filled.copy()
 
     def step(self, actions, obs, rewards, terminations, truncations, infos):
         sim = self.sim
@@ -148,13 +150,13 @@ class Checker:
         self._check_observations(obs)
         self._check_events(actions, infos)
         self._check_outcome(rewards, terminations, truncations, infos)
-        self.prev_status = sim.status.copy()
+        self.prev_status = sim.state.status.copy()
         self.prev_idx = idx
-        self.prev_filled = sim.filled.copy()
+        self.prev_filled = sim.state.filled.copy()
 
     def _check_state(self, idx):
         sim = self.sim
-        occ = sim.occ
+        occ = sim.state.occ
         C = self.C
         # Occupancy agrees with the components; no two components share a cell.
         assert np.array_equal(occ[idx], self.owner), "a component's cells do not hold its value"
@@ -175,19 +177,19 @@ class Checker:
         bad = np.flatnonzero((spans != self.expected_spans).any(axis=1))
         assert bad.size == 0, f"components {bad.tolist()} are not straight lines"
 
-        status = sim.status
+        status = sim.state.status
         assert status.min() >= 0 and status.max() <= ASSEMBLED
         assert VALID_STATUS[status].all(), f"unknown status values {np.unique(status)}"
-        assert sim.n_assembled == int(np.count_nonzero(status == ASSEMBLED))
-        assert sim.done == (sim.n_assembled == C)
-        assert sim.k == sim.n_assembled - sim.n_prebuilt
+        assert sim.state.n_assembled == int(np.count_nonzero(status == ASSEMBLED))
+        assert sim.done == (sim.state.n_assembled == C)
+        assert sim.k == sim.state.n_assembled - sim.state.n_prebuilt
         # Cranes and holders.
-        held = np.array(sim.held, dtype=np.int64)
-        holder = sim.holder
+        held = np.array(sim.state.held, dtype=np.int64)
+        holder = sim.state.holder
         busy = held[held != NOBODY]
         assert np.unique(busy).size == busy.size, "one component held by two cranes"
         assert np.count_nonzero(holder != NOBODY) == busy.size
-        for crane, comp in enumerate(sim.held):
+        for crane, comp in enumerate(sim.state.held):
             if comp != NOBODY:
                 assert holder[comp] == crane, (crane, comp, holder[comp])
         carried = holder != NOBODY
@@ -199,13 +201,13 @@ class Checker:
         else:
             assert np.array_equal(carried, holdable), "carried exactly when in transit/arrived"
         for crane in range(self.n):
-            steps_left = sim.assembling[crane]
+            steps_left = sim.state.assembling[crane]
             assert 0 <= steps_left <= sim.scenario.assembly_steps
             if steps_left:
                 assert not self.auto
-                assert status[sim.held[crane]] == ARRIVED
+                assert status[sim.state.held[crane]] == ARRIVED
         # Filled targets.
-        filled, filled_by = sim.filled, sim.filled_by
+        filled, filled_by = sim.state.filled, sim.state.filled_by
         placed = status >= ARRIVED
         assert np.array_equal(filled >= 0, placed), "filled disagrees with the statuses"
         comps = np.flatnonzero(placed)
@@ -213,15 +215,17 @@ class Checker:
         assert np.count_nonzero(filled_by >= 0) == comps.size
         for c in comps.tolist():
             t = int(filled[c])
-            assert t in sim.compatible[c]
-            assert sim.target_cellset[t] == frozenset(sim.cells[c]), f"{c} is not on target {t}"
-            for s in sim.target_supports[t]:
+            assert t in sim.site.compatible[c]
+            assert sim.site.target_cellset[t] == frozenset(sim.state.cells[c]), (
+                f"{c} is not on target {t}"
+            )
+            for s in sim.site.target_supports[t]:
                 f = int(filled_by[s])
                 assert f >= 0 and status[f] == ASSEMBLED, f"target {t} stands on nothing"
 
     def _check_motion(self, idx):
         sim = self.sim
-        prev, status = self.prev_status, sim.status
+        prev, status = self.prev_status, sim.state.status
         assert np.all(status >= self.prev_status), "a status went backwards"
         changed = np.flatnonzero(status != prev)
         if changed.size:
@@ -243,14 +247,14 @@ class Checker:
             assert set(delta[self.starts[carried]].tolist()) <= self.shifts, "a jump"
         # A lifted component appears at its pick-up pose (automatic mode: then one move).
         for c in np.flatnonzero((prev == INITIAL) & (status != INITIAL)).tolist():
-            pickup = np.array(sim.pickup[c], dtype=np.int64)
-            shift = np.array(sim.cells[c], dtype=np.int64) - pickup
+            pickup = np.array(sim.state.pickup[c], dtype=np.int64)
+            shift = np.array(sim.state.cells[c], dtype=np.int64) - pickup
             assert np.all(shift == shift[0]), f"{c} was lifted out of shape"
             allowed = self.shifts if self.auto else {0}
             assert int(shift[0]) in allowed, f"{c} was not lifted to its pick-up pose"
         # Filled targets stay filled by the same components.
         was = self.prev_filled >= 0
-        assert np.array_equal(sim.filled[was], self.prev_filled[was])
+        assert np.array_equal(sim.state.filled[was], self.prev_filled[was])
 
     def _check_masks(self, obs, infos):
         sim = self.sim
@@ -271,18 +275,18 @@ class Checker:
             assert ((m == 0) | (m == 1)).all()
             assert m[WAIT] == 1, "wait must always be allowed"
             assert m.any()
-            comp = sim.held[i]
+            comp = sim.state.held[i]
             if self.auto:
                 assert not m[ASSEMBLE] and not m[CLAIM_BASE:].any()
-            elif sim.assembling[i]:
+            elif sim.state.assembling[i]:
                 assert m.sum() == 1  # only wait while assembling
             elif comp == NOBODY:
                 assert not m[:N_MOVES].any() and not m[ASSEMBLE]
                 assert np.array_equal(m[CLAIM_BASE:], claimable)
             else:
                 assert not m[CLAIM_BASE:].any()
-                assert m[ASSEMBLE] == (sim.status[comp] == ARRIVED)
-                if sim.status[comp] == ARRIVED:
+                assert m[ASSEMBLE] == (sim.state.status[comp] == ARRIVED)
+                if sim.state.status[comp] == ARRIVED:
                     assert not m[:N_MOVES].any()
 
     def _check_observations(self, obs):
@@ -299,7 +303,7 @@ class Checker:
         fresh = Observer(sim) if spec is None else Observer(sim, spec)
         fresh.reset(env.step_limit)
         if self.auto:
-            ready = [c for c in sim.held if c != NOBODY and sim.status[c] == INITIAL]
+            ready = [c for c in sim.state.held if c != NOBODY and sim.state.status[c] == INITIAL]
         else:
             ready = sim.claimable_components()
         fresh.update(set(), ready, full=True)
@@ -311,7 +315,7 @@ class Checker:
                 parts = env.observation_layout.split(mine - expected)
                 where = [k for k, v in parts.items() if np.any(v)]
                 raise AssertionError(
-                    f"step {sim.step_count}: {agent}'s observation differs from a fresh one "
+                    f"step {sim.state.step_count}: {agent}'s observation differs from a fresh one "
                     f"at {diff.size} entries (in {where}), first {diff[:5].tolist()}"
                 )
 
@@ -319,7 +323,7 @@ class Checker:
         sim = self.sim
         for i, agent in enumerate(self.env.possible_agents):
             for e in infos[agent]["events"]:
-                assert e.crane == i and e.step == sim.step_count, e
+                assert e.crane == i and e.step == sim.state.step_count, e
                 self.events[e.type.name] += 1
                 if self.n == 1:
                     # One crane sending masked actions never hits a refusal.
@@ -350,11 +354,14 @@ class Checker:
             for a in agents
             for e in infos[a]["events"]
         )
-        over = any(comp != NOBODY and sim.moves[comp] > sim.move_limit for comp in sim.held)
+        over = any(
+            comp != NOBODY and sim.state.moves[comp] > sim.site.move_limit
+            for comp in sim.state.held
+        )
         if sim.done:
             expected = self.spec.completion
         elif progress:
-            expected = float(progress * sim.n_assembled)
+            expected = float(progress * sim.state.n_assembled)
         elif over:
             expected = -self.spec.over_limit_cost
         else:
@@ -365,9 +372,9 @@ class Checker:
         assert len(term) == 1 and len(trunc) == 1
         term, trunc = term.pop(), trunc.pop()
         assert term == sim.done, "terminated exactly when every component is assembled"
-        assert trunc == (not sim.done and sim.step_count >= env.step_limit)
+        assert trunc == (not sim.done and sim.state.step_count >= env.step_limit)
         assert not (term and trunc)
-        assert sim.step_count <= env.step_limit
+        assert sim.state.step_count <= env.step_limit
         assert (env.agents == []) == (term or trunc)
         if term:
             self.terminated += 1
@@ -393,15 +400,19 @@ def _guided_actions(env, obs, rng, greed=0.8):
             actions[agent] = int(claims[rng.integers(claims.size)])
             continue
         moves = legal[legal < N_MOVES]
-        comp = sim.held[i]
+        comp = sim.state.held[i]
         targets = sim.ready_targets(comp) if comp != NOBODY else []
         if moves.size and targets and rng.random() < greed:
-            source = sim.cells[comp] if sim.status[comp] == IN_TRANSIT else sim.pickup[comp]
+            source = (
+                sim.state.cells[comp]
+                if sim.state.status[comp] == IN_TRANSIT
+                else sim.state.pickup[comp]
+            )
             here = np.sort(np.array(source, dtype=np.int64))
-            goals = [np.sort(np.array(sim.target_cells[t], dtype=np.int64)) for t in targets]
+            goals = [np.sort(np.array(sim.site.target_cells[t], dtype=np.int64)) for t in targets]
             best, choice = None, []
             for m in moves.tolist():
-                cells = here + sim.move_delta[m]
+                cells = here + sim.site.move_delta[m]
                 d = min(_manhattan(sim, cells, g) for g in goals)
                 if best is None or d < best:
                     best, choice = d, [m]
@@ -414,8 +425,8 @@ def _guided_actions(env, obs, rng, greed=0.8):
 
 
 def _manhattan(sim, a, b):
-    sx = sim.shape[1] * sim.shape[2]
-    sy = sim.shape[2]
+    sx = sim.site.shape[1] * sim.site.shape[2]
+    sy = sim.site.shape[2]
     ax, ar = np.divmod(a, sx)
     ay, az = np.divmod(ar, sy)
     bx, br = np.divmod(b, sx)
@@ -501,14 +512,14 @@ def test_checker_catches_a_corrupted_grid():
     obs, infos = env.reset(seed=0)
     checker = Checker(env)
     checker.reset(obs, infos)
-    free = int(np.flatnonzero(env.sim.occ == FREE)[0])
-    env.sim.occ[free] = 1
+    free = int(np.flatnonzero(env.sim.state.occ == FREE)[0])
+    env.sim.state.occ[free] = 1
     with pytest.raises(AssertionError):
         checker.reset(obs, infos)
-    env.sim.occ[free] = FREE
-    wall = int(np.flatnonzero(env.sim.occ == WALL)[0])
-    env.sim.occ[wall] = FREE
+    env.sim.state.occ[free] = FREE
+    wall = int(np.flatnonzero(env.sim.state.occ == WALL)[0])
+    env.sim.state.occ[wall] = FREE
     with pytest.raises(AssertionError):
         checker.reset(obs, infos)
-    env.sim.occ[wall] = WALL
+    env.sim.state.occ[wall] = WALL
     checker.reset(obs, infos)

@@ -26,7 +26,7 @@ def reference_planes(sim: Simulator, ready: list[int], crane: int) -> np.ndarray
     """Every channel computed directly from the occupancy grid, cell by cell."""
     X, Y, H = sim.scenario.size
     planes = np.zeros((X, Y, 9), dtype=np.float32)
-    grid = sim.occ.reshape(sim.shape)[1 : X + 1, 1 : Y + 1, :]
+    grid = sim.state.occ.reshape(sim.site.shape)[1 : X + 1, 1 : Y + 1, :]
 
     def top(channel: int, cells_xyz) -> None:
         for x, y, z in cells_xyz:
@@ -34,27 +34,27 @@ def reference_planes(sim: Simulator, ready: list[int], crane: int) -> np.ndarray
 
     obstacle = [(x, y, z) for x, y, z in zip(*np.nonzero(grid == -1), strict=True) if 1 <= z <= H]
     top(OBSTACLE, obstacle)
-    for c in range(sim.n_components):
-        cells = [sim.cell(j) for j in sim.cells[c]]
-        status = sim.status[c]
+    for c in range(sim.site.n_components):
+        cells = [sim.site.cell(j) for j in sim.state.cells[c]]
+        status = sim.state.status[c]
         if status == Status.INITIAL:
             top(INITIAL, cells)
             if c in ready:
                 top(READY, cells)
         elif status == Status.IN_TRANSIT:
             top(IN_TRANSIT, cells)
-            if sim.moves[c] > sim.move_limit:
+            if sim.state.moves[c] > sim.site.move_limit:
                 top(OVER_LIMIT, cells)
         else:
             top(AT_TARGET, cells)
-    for t in range(sim.n_components):
-        if sim.filled_by[t] < 0:
-            top(FREE_TARGET, [sim.cell(j) for j in sim.target_cells[t]])
-    held = sim.held[crane]
+    for t in range(sim.site.n_components):
+        if sim.state.filled_by[t] < 0:
+            top(FREE_TARGET, [sim.site.cell(j) for j in sim.site.target_cells[t]])
+    held = sim.state.held[crane]
     if held >= 0:
-        top(MINE, [sim.cell(j) for j in sim.cells[held]])
+        top(MINE, [sim.site.cell(j) for j in sim.state.cells[held]])
         for t in sim.ready_targets(held):
-            top(MY_TARGETS, [sim.cell(j) for j in sim.target_cells[t]])
+            top(MY_TARGETS, [sim.site.cell(j) for j in sim.site.target_cells[t]])
     return planes
 
 
@@ -73,7 +73,7 @@ def test_incremental_observation_matches_reference(scenario, cranes, auto):
         if step % 7 == 0 or not env.agents:
             ready = sorted(
                 c
-                for c in range(sim.n_components)
+                for c in range(sim.site.n_components)
                 if obs["crane_0"]["observation"][layout.components].reshape(-1, COMPONENT_FEATURES)[
                     c, 4
                 ]
@@ -84,8 +84,8 @@ def test_incremental_observation_matches_reference(scenario, cranes, auto):
                     parts["planes"], reference_planes(sim, ready, i), atol=1e-6
                 )
                 table = parts["components"]
-                np.testing.assert_array_equal(table[:, :4].argmax(axis=1), sim.status)
-                assert table[:, 6].sum() == (sim.held[i] >= 0)
+                np.testing.assert_array_equal(table[:, :4].argmax(axis=1), sim.state.status)
+                assert table[:, 6].sum() == (sim.state.held[i] >= 0)
             checked += 1
         if not env.agents:
             obs, _ = env.reset()

@@ -1,6 +1,6 @@
 """The single-agent benchmark mode (``PaperAssemblyEnv``) against ``docs/paper-spec.md``.
 
-Sections of that page are cited as "spec §n". Coordinates are (x, y, z) with z up; ``sim.cell``
+Sections of that page are cited as "spec §n". Coordinates are (x, y, z) with z up; ``sim.site.cell``
 turns the simulator's linear cell indices into site cells. What is covered:
 
 1. Conformance with Gymnasium's and Stable-Baselines3's environment checkers, registration,
@@ -68,11 +68,11 @@ def segment(a, b) -> list[tuple[int, int, int]]:
 
 
 def cells_of(sim, comp: int) -> list[tuple[int, int, int]]:
-    return [sim.cell(j) for j in sim.cells[comp]]
+    return [sim.site.cell(j) for j in sim.state.cells[comp]]
 
 
 def all_cells(sim) -> list[list[tuple[int, int, int]]]:
-    return [cells_of(sim, c) for c in range(sim.n_components)]
+    return [cells_of(sim, c) for c in range(sim.site.n_components)]
 
 
 def event_types(info) -> list[EventType]:
@@ -314,7 +314,7 @@ def test_plan_replays_to_its_return(config):
             assert terminated == last and not truncated, (config, seed, i)
         assert total == p.episode_return, (config, seed)
         assert info["is_success"] is True
-        assert env.sim.done and env.sim.step_count == p.steps
+        assert env.sim.done and env.sim.state.step_count == p.steps
         assert p.steps <= STEP_LIMIT[config[1]]
 
 
@@ -387,7 +387,7 @@ def test_single_agent_agrees_with_multi_agent_auto(config):
         m.reset(seed=seed)
         assert g.sim.start == m.sim.start, (config, seed)
         assert all_cells(g.sim) == all_cells(m.sim), (config, seed)
-        assert np.array_equal(g.sim.status, m.sim.status)
+        assert np.array_equal(g.sim.state.status, m.sim.state.status)
         step = 0
         while True:
             if step < len(planned) and (mode == 0 or rng.random() >= 0.2):
@@ -398,9 +398,9 @@ def test_single_agent_agrees_with_multi_agent_auto(config):
             _, rewards, terms, truncs, infos = m.step({"crane_0": a})
             step += 1
             where = (config, seed, step)
-            assert np.array_equal(g.sim.status, m.sim.status), where
+            assert np.array_equal(g.sim.state.status, m.sim.state.status), where
             assert all_cells(g.sim) == all_cells(m.sim), where
-            assert np.array_equal(g.sim.moves, m.sim.moves), where
+            assert np.array_equal(g.sim.state.moves, m.sim.state.moves), where
             assert r == rewards["crane_0"], where
             assert terminated == terms["crane_0"] and truncated == truncs["crane_0"], where
             assert info["events"] == infos["crane_0"]["events"], where
@@ -450,18 +450,18 @@ def reference_observation(env: PaperAssemblyEnv) -> np.ndarray:
     for box in scenario.obstacles:
         top(1, box.cells())
     placed = (Status.ARRIVED, Status.ASSEMBLED)
-    status = [Status(int(s)) for s in sim.status]
+    status = [Status(int(s)) for s in sim.state.status]
     k = sum(
         1 for c, spec in enumerate(scenario.components) if status[c] in placed and not spec.prebuilt
     )
     assert k == sim.k
-    for c in range(sim.n_components):
+    for c in range(sim.site.n_components):
         cells = cells_of(sim, c)
         if status[c] == Status.INITIAL:
             top(1, cells)
         else:
             top(2, cells)
-        if status[c] == Status.IN_TRANSIT and sim.moves[c] > MOVE_LIMIT:
+        if status[c] == Status.IN_TRANSIT and sim.state.moves[c] > MOVE_LIMIT:
             mark(4, cells, 1)
         if status[c] in placed:
             mark(5, cells, k)
@@ -476,7 +476,7 @@ def _check_observation(env, obs) -> np.ndarray:
         diff = np.argwhere(got != ref)
         x, y, ch = diff[0]
         raise AssertionError(
-            f"step {env.sim.step_count}: {len(diff)} values differ, first at "
+            f"step {env.sim.state.step_count}: {len(diff)} values differ, first at "
             f"(x={x}, y={y}, channel {ch}): env {got[x, y, ch]}, spec {ref[x, y, ch]}"
         )
     return ref
@@ -531,7 +531,7 @@ def test_observation_past_the_move_limit():
     for i, a in enumerate(actions, start=1):
         obs, r, terminated, truncated, _ = env.step(a)
         ref = _check_observation(env, obs)
-        assert env.sim.moves[col2] == i
+        assert env.sim.state.moves[col2] == i
         got4 = obs.reshape(15, 15, 6)[:, :, 4]
         if i > MOVE_LIMIT:
             assert r == -2.0
@@ -544,10 +544,10 @@ def test_observation_past_the_move_limit():
     # A blocked move past the limit still costs -2 and does not count.
     for _ in range(3):
         env.step(UP)  # column up to the ceiling (z 6..9 would leave the site)
-    moves = int(env.sim.moves[col2])
+    moves = int(env.sim.state.moves[col2])
     obs, r, _, _, info = env.step(UP)
     assert EventType.BLOCKED in event_types(info)
-    assert r == -2.0 and env.sim.moves[col2] == moves
+    assert r == -2.0 and env.sim.state.moves[col2] == moves
     _check_observation(env, obs)
 
 
@@ -593,11 +593,11 @@ def test_first_action_lifts_and_moves(config):
         c = env.scenario.index_of(comp_id)
         spec = env.scenario.components[c]
         lifted = expected_pickup(spec, env.sim.start.initial[c])
-        assert env.sim.status[c] == Status.INITIAL and env.sim.moves[c] == 0
+        assert env.sim.state.status[c] == Status.INITIAL and env.sim.state.moves[c] == 0
         _, r, _, _, info = env.step(UP)
         assert event_types(info)[:1] == [EventType.LIFTED]
-        assert env.sim.status[c] == Status.IN_TRANSIT
-        assert env.sim.moves[c] == 1
+        assert env.sim.state.status[c] == Status.IN_TRANSIT
+        assert env.sim.state.moves[c] == 1
         assert cells_of(env.sim, c) == [(x, y, z + 1) for x, y, z in lifted]
         assert r == -1.0
 
@@ -610,7 +610,7 @@ def test_first_move_down_uses_the_freed_yard_cell():
     col2 = env.scenario.index_of("2")
     env.step(DOWN)
     assert cells_of(env.sim, col2) == segment((7, 3, 1), (7, 3, 4))
-    assert env.sim.moves[col2] == 1
+    assert env.sim.state.moves[col2] == 1
 
 
 def test_pass_over_after_column_3():
@@ -642,12 +642,12 @@ def test_pass_over_after_column_3():
         env.reset(seed=0)
         for b in p.actions[:i]:
             env.step(b)
-        before = (all_cells(env.sim), env.sim.status.copy(), env.sim.moves.copy())
+        before = (all_cells(env.sim), env.sim.state.status.copy(), env.sim.state.moves.copy())
         _, r, terminated, truncated, info = env.step(a)
         assert r == 2.0 and not terminated and not truncated
         assert all_cells(env.sim) == before[0]
-        assert np.array_equal(env.sim.status, before[1])
-        assert np.array_equal(env.sim.moves, before[2])
+        assert np.array_equal(env.sim.state.status, before[1])
+        assert np.array_equal(env.sim.state.moves, before[2])
 
 
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
@@ -661,7 +661,7 @@ def test_truncation_at_the_step_limit(config):
         assert not terminated
         assert truncated == (step == limit), step
     assert info["is_success"] is False
-    assert env.sim.step_count == limit
+    assert env.sim.state.step_count == limit
 
 
 def test_finishing_on_the_last_allowed_step_is_a_termination():
@@ -694,24 +694,24 @@ def test_blocked_move_costs_a_step_and_does_not_count(config, before, action, k)
     for a in before:
         _, _, terminated, _, info = env.step(a)
         assert EventType.BLOCKED not in event_types(info) and not terminated
-    c = env.sim.held[0]
+    c = env.sim.state.held[0]
     assert c != NOBODY and env.sim.k == k
     assert not env.sim.move_ok(c, action)
     assert env.action_masks()[action] == 0
-    cells, moves = all_cells(env.sim), int(env.sim.moves[c])
+    cells, moves = all_cells(env.sim), int(env.sim.state.moves[c])
     assert moves <= MOVE_LIMIT
     _, r, terminated, truncated, info = env.step(action)
     assert EventType.BLOCKED in event_types(info)
     assert r == -1.0 / (k + 1)
-    assert env.sim.moves[c] == moves
+    assert env.sim.state.moves[c] == moves
     assert all_cells(env.sim) == cells
 
 
 def expected_mask(sim) -> np.ndarray:
     """Spec of ``mask_blocked_moves=True``: the moves ``move_ok`` allows for the current
     component; all six when there is none (pass-over) or when all six are blocked."""
-    comp = sim.held[0]
-    if comp == NOBODY or sim.pass_over[0]:
+    comp = sim.state.held[0]
+    if comp == NOBODY or sim.state.pass_over[0]:
         return ALL_ONES
     mask = np.array([sim.move_ok(comp, m) for m in range(6)], dtype=np.int8)
     return mask if mask.any() else ALL_ONES
@@ -774,7 +774,7 @@ def test_first_move_blocked_still_lifts():
     col2 = env.scenario.index_of("2")
     obs, r, _, _, info = env.step(X_PLUS)
     assert event_types(info) == [EventType.LIFTED, EventType.BLOCKED]
-    assert env.sim.status[col2] == Status.IN_TRANSIT and env.sim.moves[col2] == 0
+    assert env.sim.state.status[col2] == Status.IN_TRANSIT and env.sim.state.moves[col2] == 0
     assert cells_of(env.sim, col2) == segment((7, 3, 2), (7, 3, 5))
     assert r == -1.0
     _check_observation(env, obs)
@@ -791,7 +791,7 @@ def test_lift_into_an_obstacle_costs_a_blocked_step():
         obs, r, terminated, truncated, info = env.step(DOWN)
         assert EventType.LIFT_BLOCKED in event_types(info)
         assert r == -1.0 and not terminated and not truncated
-        assert env.sim.status[col2] == Status.INITIAL and env.sim.moves[col2] == 0
+        assert env.sim.state.status[col2] == Status.INITIAL and env.sim.state.moves[col2] == 0
         assert cells_of(env.sim, col2) == yard
         _check_observation(env, obs)
 
@@ -809,13 +809,13 @@ def test_all_six_blocked_allows_all_six():
     for a in GOLDEN_E2S2_ACTIONS[:23]:
         _, _, _, _, info = env.step(a)
     beam = env.scenario.index_of("1")
-    assert env.sim.held[0] == beam and env.sim.k == 2
+    assert env.sim.state.held[0] == beam and env.sim.k == 2
     assert not any(env.sim.move_ok(beam, m) for m in range(6))
     assert np.array_equal(info["action_mask"], ALL_ONES)
     assert np.array_equal(env.action_masks(), ALL_ONES)
     obs, r, _, _, info = env.step(UP)
     assert event_types(info) == [EventType.LIFTED, EventType.BLOCKED]
-    assert r == -1.0 / 3 and env.sim.moves[beam] == 0
+    assert r == -1.0 / 3 and env.sim.state.moves[beam] == 0
     assert cells_of(env.sim, beam) == segment((5, 3, 4), (5, 5, 4))
     assert np.array_equal(info["action_mask"], ALL_ONES)
     _check_observation(env, obs)
@@ -919,7 +919,7 @@ def test_env1_prebuilt_column_coin():
         cells = cells_of(env.sim, col2)
         x, y, _ = cells[0]
         assert cells == segment((x, y, 1), (x, y, 4))
-        assert env.sim.status[col2] == Status.ASSEMBLED
+        assert env.sim.state.status[col2] == Status.ASSEMBLED
         count[(x, y)] += 1
     assert count[(9, 9)] + count[(9, 13)] == 200
     assert 70 <= count[(9, 9)] <= 130, count
@@ -980,8 +980,8 @@ def test_clone_mid_episode_continues_identically(config, how):
             break
     # Independent: resetting the clone leaves the original alone.
     clone.reset(seed=5)
-    assert not np.shares_memory(env.sim.occ, clone.sim.occ)
-    assert env.sim.step_count > 0
+    assert not np.shares_memory(env.sim.state.occ, clone.sim.state.occ)
+    assert env.sim.state.step_count > 0
 
 
 @pytest.mark.parametrize("config", ["E1S3", "E3S2", "E4S3"])

@@ -115,7 +115,7 @@ def play_in_every_order(env, seed: int) -> int:
     orders = list(itertools.permutations(range(sim.n_cranes)))
 
     def owners() -> dict[int, int]:
-        return {j: c for c in range(sim.n_components) for j in sim.cells[c]}
+        return {j: c for c in range(sim.site.n_components) for j in sim.state.cells[c]}
 
     before = owners()
     while env.agents:
@@ -125,18 +125,18 @@ def play_in_every_order(env, seed: int) -> int:
         for order in orders:
             out = sim.step(joint, list(order))
             bad = [e for e in out.events if e.type in BAD]
-            assert not bad, f"step {sim.step_count}, order {order}: {bad}"
+            assert not bad, f"step {sim.state.step_count}, order {order}: {bad}"
             sim.restore(snap)
         obs, *_ = env.step(actions)
         after = owners()
         handed = {j: (before[j], c) for j, c in after.items() if before.get(j, c) != c}
-        assert not handed, f"step {sim.step_count}: cells changed hands {handed}"
+        assert not handed, f"step {sim.state.step_count}: cells changed hands {handed}"
         before = after
     assert sim.done
     # Every planned action was legal when chosen (no fallback to waiting) and the site never
     # left the plans (no replanning).
     assert planner.stats["fallbacks"] == 0 and planner.stats["replans"] == 0, planner.stats
-    return sim.step_count
+    return sim.state.step_count
 
 
 @pytest.mark.parametrize(("scenario", "seed"), [("frame2-3c", 0), ("hall-4c", 1)])
@@ -168,7 +168,7 @@ def test_planner_reuse_recall_and_mode_checks():
             assert planner(obs) == actions  # a second call at the same step changes nothing
             obs, *_ = env.step(actions)
         assert env.sim.done
-        spans.append(env.sim.step_count)
+        spans.append(env.sim.state.step_count)
     assert spans[0] == spans[1]
     with pytest.raises(ValueError, match="auto"):
         PrioritizedPlanner(multicrane.parallel_env("e3s2", auto=True))

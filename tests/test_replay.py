@@ -203,7 +203,7 @@ def _column(chunks: list, name: str) -> tuple[list[int], list]:
 
 
 def _statuses(record: EpisodeRecord) -> list[list[int]]:
-    return [env.sim.status.tolist() for env, _, _, _ in resimulate_steps(record)]
+    return [env.sim.state.status.tolist() for env, _, _, _ in resimulate_steps(record)]
 
 
 def test_rrd_file_contents(rr, hall_record, tmp_path):

@@ -76,7 +76,7 @@ def make(text: str | None = None, n_cranes: int | None = None, auto: bool = Fals
 
 
 def cells(sim: Simulator, comp: int) -> list[tuple[int, int, int]]:
-    return [sim.cell(j) for j in sim.cells[comp]]
+    return [sim.site.cell(j) for j in sim.state.cells[comp]]
 
 
 def column_at(x: int, y: int, z0: int, length: int = 4) -> list[tuple[int, int, int]]:
@@ -126,18 +126,22 @@ C2_TO_TARGET = [Y_PLUS] * 5 + [X_PLUS] * 3 + [DOWN]
 )
 def test_pickup_pose(kwargs, comp, expected):
     sim = make(micro_site(**kwargs))
-    assert [sim.cell(j) for j in sim.pickup[comp]] == expected
+    assert [sim.site.cell(j) for j in sim.state.pickup[comp]] == expected
 
 
 def test_claim_lifts_to_pickup_pose_and_frees_the_yard_cells():
     sim = make()
-    yard = list(sim.cells[C1])
+    yard = list(sim.state.cells[C1])
     out = sim.step([CLAIM_BASE + C1])
     assert types(out) == [EventType.CLAIMED, EventType.LIFTED]
     assert cells(sim, C1) == column_at(1, 1, 2)
-    assert sim.status[C1] == Status.IN_TRANSIT and sim.held[0] == C1 and sim.holder[C1] == 0
+    assert (
+        sim.state.status[C1] == Status.IN_TRANSIT
+        and sim.state.held[0] == C1
+        and sim.state.holder[C1] == 0
+    )
     # Its old cells are free at once; the lifted column may go down into node 1's cell.
-    assert all(sim.occ[j] == 0 for j in yard[1:])
+    assert all(sim.state.occ[j] == 0 for j in yard[1:])
     sim.step([int(DOWN)])
     assert cells(sim, C1) == column_at(1, 1, 1)
 
@@ -154,7 +158,7 @@ def test_claim_blocked_when_pickup_pose_is_occupied():
     assert not sim.action_mask(1)[CLAIM_BASE + C1]
     out = sim.step([WAIT, CLAIM_BASE + C1])
     assert types(out) == [EventType.LIFT_BLOCKED]
-    assert sim.status[C1] == Status.INITIAL and sim.held[1] == -1
+    assert sim.state.status[C1] == Status.INITIAL and sim.state.held[1] == -1
 
 
 # -- blocked moves ------------------------------------------------------------------------
@@ -175,20 +179,20 @@ def test_blocked_move(obstacles, before, move, why):
     sim = make(micro_site(obstacles=obstacles))
     sim.step([CLAIM_BASE + C1])
     drive(sim, C1, before)
-    moves_before = int(sim.moves[C1])
+    moves_before = int(sim.state.moves[C1])
     where = cells(sim, C1)
     assert not sim.action_mask(0)[int(move)], why
     out = sim.step([int(move)])
     assert types(out) == [EventType.BLOCKED], why
     assert cells(sim, C1) == where
-    assert sim.moves[C1] == moves_before  # a blocked move does not count
+    assert sim.state.moves[C1] == moves_before  # a blocked move does not count
 
 
 def test_successful_moves_count():
     sim = make()
     sim.step([CLAIM_BASE + C1])
     drive(sim, C1, [X_PLUS, Y_PLUS, UP])
-    assert sim.moves[C1] == 3
+    assert sim.state.moves[C1] == 3
     assert cells(sim, C1) == column_at(2, 2, 3)
 
 
@@ -200,12 +204,16 @@ def test_arrival_at_own_target_then_assembly():
     sim.step([CLAIM_BASE + C1])
     outs = drive(sim, C1, C1_TO_TARGET)
     assert EventType.ARRIVED in types(outs[-1])
-    assert sim.status[C1] == Status.ARRIVED and sim.filled[C1] == C1
+    assert sim.state.status[C1] == Status.ARRIVED and sim.state.filled[C1] == C1
     mask = sim.action_mask(0)
     assert mask[ASSEMBLE] and not mask[: int(WAIT)].any()  # an arrived component never moves
     out = sim.step([ASSEMBLE])
     assert types(out) == [EventType.ASSEMBLY_STARTED, EventType.ASSEMBLED]
-    assert sim.status[C1] == Status.ASSEMBLED and sim.held[0] == -1 and sim.n_assembled == 1
+    assert (
+        sim.state.status[C1] == Status.ASSEMBLED
+        and sim.state.held[0] == -1
+        and sim.state.n_assembled == 1
+    )
 
 
 @pytest.mark.parametrize(("interchangeable", "arrives"), [(False, False), (True, True)])
@@ -216,9 +224,9 @@ def test_arrival_at_another_components_target(interchangeable, arrives):
     outs = drive(sim, C1, [X_PLUS] * 4 + [Y_PLUS] * 5 + [DOWN])
     assert cells(sim, C1) == column_at(5, 6, 1)
     assert (EventType.ARRIVED in types(outs[-1])) == arrives
-    assert sim.status[C1] == (Status.ARRIVED if arrives else Status.IN_TRANSIT)
+    assert sim.state.status[C1] == (Status.ARRIVED if arrives else Status.IN_TRANSIT)
     if arrives:
-        assert sim.filled[C1] == C2 and sim.filled_by[C2] == C1
+        assert sim.state.filled[C1] == C2 and sim.state.filled_by[C2] == C1
         # c2 may now only go to the other free target, c1's own.
         assert sim.ready_targets(C2) == [C1]
 
@@ -227,7 +235,7 @@ def test_filled_target_cannot_be_filled_again():
     sim = make(micro_site(interchangeable=True), n_cranes=2)
     sim.step([CLAIM_BASE + C1, CLAIM_BASE + C2])
     drive(sim, C1, C1_TO_TARGET, crane=0)
-    assert sim.status[C1] == Status.ARRIVED
+    assert sim.state.status[C1] == Status.ARRIVED
     assert sim.ready_targets(C2) == [C2]  # c1's target is taken
 
 
@@ -238,7 +246,7 @@ def test_beam_not_claimable_until_a_supported_target_exists():
     sim = make(n_cranes=1)
     assert not sim.action_mask(0)[CLAIM_BASE + B1]
     out = sim.step([CLAIM_BASE + B1])
-    assert types(out) == [EventType.ILLEGAL] and sim.status[B1] == Status.INITIAL
+    assert types(out) == [EventType.ILLEGAL] and sim.state.status[B1] == Status.INITIAL
 
 
 def build_columns(sim: Simulator) -> None:
@@ -247,7 +255,7 @@ def build_columns(sim: Simulator) -> None:
     sim.step([ASSEMBLE])
     sim.step([CLAIM_BASE + C2])
     drive(sim, C2, C2_TO_TARGET)
-    assert sim.status[C2] == Status.ARRIVED
+    assert sim.state.status[C2] == Status.ARRIVED
 
 
 def test_beam_covering_its_target_before_supports_are_assembled_does_not_arrive():
@@ -267,8 +275,8 @@ def test_precedence_blocks_arrival_in_automatic_mode():
     # A beam whose supports are not assembled is skipped by the pointer: with the order
     # b1, c1, c2 the crane gets c1 first.
     sim = make(micro_site(order='["b1", "c1", "c2"]'), auto=True)
-    assert sim.held[0] == C1
-    assert sim.status[C1] == Status.INITIAL  # assigned, not yet lifted
+    assert sim.state.held[0] == C1
+    assert sim.state.status[C1] == Status.INITIAL  # assigned, not yet lifted
 
 
 # -- automatic mode -----------------------------------------------------------------------
@@ -278,24 +286,24 @@ def test_auto_first_move_lifts_and_moves():
     sim = make(auto=True)
     out = sim.step([int(X_PLUS)])
     assert types(out) == [EventType.LIFTED]
-    assert cells(sim, C1) == column_at(2, 1, 2) and sim.moves[C1] == 1
+    assert cells(sim, C1) == column_at(2, 1, 2) and sim.state.moves[C1] == 1
 
 
 def test_auto_first_move_blocked_still_lifts():
     sim = make(auto=True)
     out = sim.step([int(Y_MINUS)])  # (1, 0) is free: allowed
-    assert sim.moves[C1] == 1
+    assert sim.state.moves[C1] == 1
     sim = make(micro_site(c1_initial="[[1, 0, 1], [1, 3, 1]]"), auto=True)
     out = sim.step([int(Y_MINUS)])  # y = -1: blocked after lifting
     assert types(out) == [EventType.LIFTED, EventType.BLOCKED]
-    assert cells(sim, C1) == column_at(1, 0, 2) and sim.moves[C1] == 0
+    assert cells(sim, C1) == column_at(1, 0, 2) and sim.state.moves[C1] == 0
 
 
 def test_auto_assembles_on_arrival_and_assigns_next():
     sim = make(auto=True)
     outs = drive(sim, C1, C1_TO_TARGET)
     assert types(outs[-1])[-3:] == [EventType.ARRIVED, EventType.ASSEMBLED, EventType.ASSIGNED]
-    assert sim.status[C1] == Status.ASSEMBLED and sim.held[0] == C2
+    assert sim.state.status[C1] == Status.ASSEMBLED and sim.state.held[0] == C2
 
 
 def test_auto_pass_over_of_a_prebuilt_entry():
@@ -305,12 +313,12 @@ def test_auto_pass_over_of_a_prebuilt_entry():
         "target = [[5, 2, 1], [5, 2, 4]]\nprebuilt = true",
     )
     sim = make(text, auto=True)
-    assert sim.held[0] == C2 and sim.n_assembled == 1
+    assert sim.state.held[0] == C2 and sim.state.n_assembled == 1
     drive(sim, C2, C2_TO_TARGET)
-    assert sim.pass_over[0] and sim.held[0] == -1
+    assert sim.state.pass_over[0] and sim.state.held[0] == -1
     out = sim.step([int(X_PLUS)])  # the action is ignored
     assert types(out)[0] == EventType.PASS_OVER
-    assert out.pass_over_by == [0] and sim.held[0] == B1
+    assert out.pass_over_by == [0] and sim.state.held[0] == B1
 
 
 # -- several cranes in one step -----------------------------------------------------------
@@ -321,7 +329,7 @@ def test_claim_conflict_goes_to_the_earlier_crane(order):
     sim = make(n_cranes=2)
     out = sim.step([CLAIM_BASE + C1, CLAIM_BASE + C1], order)
     winner, loser = order
-    assert sim.held[winner] == C1 and sim.held[loser] == -1
+    assert sim.state.held[winner] == C1 and sim.state.held[loser] == -1
     conflicts = [e for e in out.events if e.type == EventType.CLAIM_CONFLICT]
     assert [(e.crane, e.component) for e in conflicts] == [(loser, C1)]
 
@@ -339,7 +347,7 @@ def test_two_components_moving_into_the_same_cell(order):
     assert cells(sim, moved[first])[0][0] == expected_x[moved[first]]
     blocked = [e for e in out.events if e.type == EventType.BLOCKED]
     assert [e.crane for e in blocked] == [second]
-    occupied = [j for c in (C1, C2) for j in sim.cells[c]]
+    occupied = [j for c in (C1, C2) for j in sim.state.cells[c]]
     assert len(occupied) == len(set(occupied))
 
 
@@ -364,10 +372,10 @@ def test_assembly_takes_the_scenarios_steps():
     drive(sim, C1, C1_TO_TARGET)
     out = sim.step([ASSEMBLE])
     assert types(out) == [EventType.ASSEMBLY_STARTED]
-    assert sim.action_mask(0).tolist() == [0] * 6 + [1] + [0] * (sim.n_actions - 7)
+    assert sim.action_mask(0).tolist() == [0] * 6 + [1] + [0] * (sim.site.n_actions - 7)
     assert types(sim.step([WAIT])) == []
     out = sim.step([WAIT])
-    assert types(out) == [EventType.ASSEMBLED] and sim.held[0] == -1
+    assert types(out) == [EventType.ASSEMBLED] and sim.state.held[0] == -1
 
 
 # -- illegal actions ----------------------------------------------------------------------
@@ -383,10 +391,10 @@ def test_assembly_takes_the_scenarios_steps():
 )
 def test_illegal_action_is_a_noop_event(action, detail):
     sim = make()
-    before = sim.occ.copy()
+    before = sim.state.occ.copy()
     out = sim.step([action])
     assert types(out) == [EventType.ILLEGAL] and detail in out.events[0].detail
-    assert np.array_equal(before, sim.occ)
+    assert np.array_equal(before, sim.state.occ)
 
 
 # -- reward -------------------------------------------------------------------------------

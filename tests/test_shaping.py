@@ -50,7 +50,7 @@ def test_potential_is_minus_the_distance_to_the_nearest_free_target():
     # gradient: the potential changes by exactly one cell.
     comp = sim.claimable_components()[0]
     env.step({"crane_0": 8 + comp})
-    assert sim.held[0] == comp
+    assert sim.state.held[0] == comp
     assert phi() == start, "claiming puts the component at its pick-up pose: no change"
     changes = set()
     for move in range(6):
@@ -73,9 +73,9 @@ def test_potential_is_zero_when_everything_is_assembled():
     while env.agents:
         obs, *_ = env.step(policy(obs))
     assert env.sim.done
-    assert all(int(s) == int(Status.ASSEMBLED) for s in env.sim.status)
+    assert all(int(s) == int(Status.ASSEMBLED) for s in env.sim.state.status)
     assert DistancePotential(env.sim)() == 0.0
-    assert all(c == NOBODY for c in env.sim.held)
+    assert all(c == NOBODY for c in env.sim.state.held)
 
 
 @pytest.mark.parametrize("seed", [0, 1])

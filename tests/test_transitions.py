@@ -38,7 +38,7 @@ def reach(status: Status, auto: bool = False):
     }[status]
     for action in steps:
         sim.step([int(action)])
-    assert sim.status[C1] == status
+    assert sim.state.status[C1] == status
     return sim
 
 
@@ -78,10 +78,10 @@ def test_every_row_happens_and_emits_its_event(source, target, auto):
     events = [e for e in events if e.component == C1]
     assert ROWS[source, target].event in [e.type for e in events]
     if auto and target == Status.ARRIVED:
-        assert sim.status[C1] == Status.ASSEMBLED  # ... and, at once, the next row
+        assert sim.state.status[C1] == Status.ASSEMBLED  # ... and, at once, the next row
         assert EventType.ASSEMBLED in [e.type for e in events]
     else:
-        assert sim.status[C1] == target
+        assert sim.state.status[C1] == target
 
 
 @pytest.mark.parametrize(("source", "target"), PAIRS)
@@ -99,16 +99,16 @@ def test_the_simulator_refuses_a_change_outside_the_table(source, target):
     sim = reach(source)
     with pytest.raises(TransitionError):
         sim._set_status(C1, int(target))
-    assert sim.status[C1] == source
+    assert sim.state.status[C1] == source
 
 
 @pytest.mark.parametrize("source", list(Status))
 def test_no_action_makes_a_change_outside_the_table(source):
     sim = reach(source)
     snap = sim.snapshot()
-    for action in range(sim.n_actions):
-        before = sim.status.copy()
+    for action in range(sim.site.n_actions):
+        before = sim.state.status.copy()
         sim.step([action])
-        for a, b in zip(before.tolist(), sim.status.tolist(), strict=True):
+        for a, b in zip(before.tolist(), sim.state.status.tolist(), strict=True):
             assert a == b or allowed(a, b), f"action {action}: {Status(a).name} -> {Status(b).name}"
         sim.restore(snap)

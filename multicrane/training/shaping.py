@@ -39,20 +39,22 @@ class DistancePotential:
     def _goal_cells(self, comp: int, target: int) -> list[tuple[int, int, int]]:
         key = (comp, target)
         if key not in self._goals:
-            self._goals[key] = [self.sim.cell(g) for g in goal_positions(self.sim, comp, [target])]
+            self._goals[key] = [
+                self.sim.site.cell(g) for g in goal_positions(self.sim, comp, [target])
+            ]
         return self._goals[key]
 
     def __call__(self) -> float:
         sim = self.sim
         total = 0
-        for comp in range(sim.n_components):
-            status = int(sim.status[comp])
-            if status in (_ASSEMBLED, _ARRIVED) or sim.prebuilt[comp]:
+        for comp in range(sim.site.n_components):
+            status = int(sim.state.status[comp])
+            if status in (_ASSEMBLED, _ARRIVED) or sim.state.prebuilt[comp]:
                 continue
-            x, y, z = sim.cell(current_cells(sim, comp)[0])
+            x, y, z = sim.site.cell(current_cells(sim, comp)[0])
             best = None
-            for t in sim.compatible[comp]:
-                if sim.filled_by[t] != NOBODY:
+            for t in sim.site.compatible[comp]:
+                if sim.state.filled_by[t] != NOBODY:
                     continue
                 for gx, gy, gz in self._goal_cells(comp, t):
                     d = abs(gx - x) + abs(gy - y) + abs(gz - z)
