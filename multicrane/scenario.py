@@ -63,6 +63,16 @@ class RewardSpec:
 
 
 @dataclass(frozen=True)
+class CraneSpec:
+    """One crane's reach: a tower crane standing at column ``base`` (x, y) reaches every cell
+    whose horizontal distance from the base (cell centres, in cells) is at most ``radius``,
+    at every height. A component is within reach when all its cells are."""
+
+    base: tuple[int, int]
+    radius: float
+
+
+@dataclass(frozen=True)
 class ComponentSpec:
     """One prefabricated component. Its own target has the same index as the component."""
 
@@ -97,6 +107,8 @@ class Scenario:
     beam_lift_z: int | None  # None: a beam is lifted to the height of its own target
     reward: RewardSpec
     random_start: RandomStart | None
+    # Per-crane reach (tower cranes), in crane order; empty: every crane reaches everywhere.
+    crane_specs: tuple[CraneSpec, ...] = ()
 
     @property
     def n_components(self) -> int:

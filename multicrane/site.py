@@ -39,6 +39,8 @@ class Site:
       before it can be filled.
     - ``compatible``: per component, the targets it may fill.
     - ``target_at``: (size,) int16, the target covering each cell (``NOBODY`` if none).
+    - ``reach``: ``None`` when every crane reaches everywhere, else one (size,) bool array
+      per crane the scenario describes (``Scenario.crane_specs``): the cells it reaches.
     """
 
     def __init__(self, scenario: Scenario):
@@ -63,6 +65,29 @@ class Site:
         for t, cells in enumerate(self.target_cells):
             self.target_at[cells] = t
         self.static = self._static_grid().reshape(-1)
+        self.reach = self._reach() if scenario.crane_specs else None
+
+    # -- reach -----------------------------------------------------------------------------
+
+    def reaches(self, crane: int, cells) -> bool:
+        """True when ``crane`` reaches every cell (linear indices); always without reach."""
+        if self.reach is None:
+            return True
+        zone = self.reach[crane]
+        return all(zone[j] for j in cells)
+
+    def _reach(self) -> list[np.ndarray]:
+        """Each crane's zone: padded cells whose column lies within its radius of its base."""
+        X, Y, _ = self.scenario.size
+        xs = np.arange(-1, X + 1)[:, None]  # padded index -> site coordinate
+        ys = np.arange(-1, Y + 1)[None, :]
+        zones = []
+        for spec in self.scenario.crane_specs:
+            bx, by = spec.base
+            columns = (xs - bx) ** 2 + (ys - by) ** 2 <= spec.radius**2
+            zone = np.broadcast_to(columns[:, :, None], self.shape)
+            zones.append(np.ascontiguousarray(zone).reshape(-1))
+        return zones
 
     # -- coordinates ---------------------------------------------------------------------
 
