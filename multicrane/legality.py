@@ -5,6 +5,11 @@ the state: target readiness, claimability, blocked moves and the action masks. T
 computed by the same functions the step uses to judge actions. Target readiness changes only
 when a component arrives or is assembled; claimability only where a move touched a pick-up
 pose; both are cached and recomputed then (``_refresh_targets``, ``_recheck``).
+
+**Reach** (``Site.reach``, tower cranes): a crane may claim (or, in automatic mode, be given)
+a component only when its pick-up pose lies in the crane's zone and some compatible target
+in the zone is free (for a beam: ready); a move whose new cells leave the holder's zone is
+not legal. Without reach (``_zones is None``) none of this runs.
 """
 
 from __future__ import annotations
@@ -34,6 +39,8 @@ class Legality:
     n_cranes: int
     _occ: memoryview  # the state's occupancy and statuses (see Simulator._bind)
     _status: memoryview
+    _zones: list | None  # Site.reach: per crane, the cells it reaches; None: no reach
+    _zone_targets: list[list[list[int]]]  # per crane, per component: compatible targets in zone
 
     # -- queries shared by the rules and the masks -------------------------------------------
 
@@ -44,6 +51,36 @@ class Legality:
         for i, cells in enumerate(self.state.pickup):
             for j in cells:
                 self._watch.setdefault(j, []).append(i)
+        if self._zones is not None:
+            # Per crane and component: the pick-up pose lies in the zone (fixed per start).
+            self._pickup_in_zone = [
+                [all(zone[j] for j in cells) for cells in self.state.pickup] for zone in self._zones
+            ]
+
+    # -- reach ------------------------------------------------------------------------------
+
+    def in_reach(self, crane: int, comp: int) -> bool:
+        """The crane may take this component: its pick-up pose is in the crane's zone and a
+        compatible target in the zone is free (a beam's: ready). Always True without reach."""
+        if self._zones is None:
+            return True
+        if not self._pickup_in_zone[crane][comp]:
+            return False
+        targets = self._zone_targets[crane][comp]
+        if self.site.kind[comp] == _BEAM:
+            ready = self.target_ready
+            return any(ready[t] for t in targets)
+        filled_by = self.state.filled_by
+        return any(filled_by[t] == NOBODY for t in targets)
+
+    def move_in_reach(self, crane: int, comp: int, move: int) -> bool:
+        """The move keeps the component's cells in the crane's zone (always True without
+        reach). An initial component is judged from its pick-up pose."""
+        if self._zones is None:
+            return True
+        zone = self._zones[crane]
+        d = self.site.move_delta[move]
+        return all(zone[j + d] for j in self._from_cells(comp))
 
     @property
     def done(self) -> bool:
@@ -168,13 +205,20 @@ class Legality:
                 if not self.auto:
                     if claims is None:
                         claims = [CLAIM_BASE + c for c in self.claimable_components()]
-                    row[claims] = 1
+                    if self._zones is None:
+                        row[claims] = 1
+                    else:
+                        row[[a for a in claims if self.in_reach(crane, a - CLAIM_BASE)]] = 1
                 continue
             status = self._status[comp]
             if status == _ARRIVED:
                 row[ASSEMBLE] = 1
             elif status == _IN_TRANSIT or (status == _INITIAL and self.can_lift(comp)):
                 row[:N_MOVES] = self.moves_ok(comp)
+                if self._zones is not None:
+                    for move in range(N_MOVES):
+                        if row[move] and not self.move_in_reach(crane, comp, move):
+                            row[move] = 0
         return masks
 
     def moves_ok(self, comp: int) -> list[bool]:

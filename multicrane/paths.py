@@ -12,10 +12,24 @@ from __future__ import annotations
 
 import numpy as np
 
+from multicrane.grid_search import UNREACHABLE, breadth_first, fits_everywhere
 from multicrane.simulator import FREE, Simulator
+from multicrane.site import Site
 from multicrane.types import N_MOVES, Status
 
-UNREACHABLE = -1
+__all__ = [
+    "UNREACHABLE",
+    "breadth_first",
+    "current_cells",
+    "distance_field",
+    "field_from",
+    "fit_mask",
+    "fits_everywhere",
+    "goal_positions",
+    "next_move",
+    "path_to",
+    "zone_ok",
+]
 
 
 def current_cells(sim: Simulator, comp: int) -> list[int]:
@@ -28,56 +42,18 @@ def current_cells(sim: Simulator, comp: int) -> list[int]:
     )
 
 
-def fits_everywhere(free: np.ndarray, offsets) -> np.ndarray:
-    """Boolean per position p: every cell ``p + o`` (o in ``offsets``) is free."""
-    n = free.size
-    ok = np.ones(n, dtype=bool)
-    for o in offsets:
-        if o > 0:
-            ok[: n - o] &= free[o:]
-            ok[n - o :] = False  # p + o would leave the array
-        elif o == 0:
-            ok &= free
-        else:
-            ok[-o:] &= free[: n + o]
-            ok[:-o] = False
-    return ok
-
-
-def breadth_first(
-    ok: np.ndarray, starts: list[int], deltas, through: np.ndarray | None = None
-) -> np.ndarray:
-    """Moves from the nearest start to every position, over positions in ``ok`` (the moves
-    are symmetric, so this is also the distance *to* the nearest start). Positions outside
-    ``through`` are reached but not expanded. ``UNREACHABLE`` where none."""
-    n = ok.size
-    dist = np.full(n, UNREACHABLE, dtype=np.int32)
-    frontier = np.zeros(n, dtype=bool)
-    frontier[[s for s in starts if ok[s]]] = True
-    dist[frontier] = 0
-    seen = frontier.copy()
-    if through is not None:
-        frontier &= through
-    depth = 0
-    while frontier.any():
-        depth += 1
-        nxt = np.zeros(n, dtype=bool)
-        for d in deltas:
-            if d > 0:
-                nxt[d:] |= frontier[: n - d]
-            else:
-                nxt[: n + d] |= frontier[-d:]
-        nxt &= ok & ~seen
-        dist[nxt] = depth
-        seen |= nxt
-        frontier = nxt if through is None else nxt & through
-    return dist
-
-
 def fit_mask(sim: Simulator, comp: int, shape: list[int]) -> np.ndarray:
     """Boolean per position: the component, shaped as ``shape``, fits there."""
     free = (sim.state.occ == FREE) | (sim.state.occ == comp + 1)
     return fits_everywhere(free, [j - shape[0] for j in shape])
+
+
+def zone_ok(site: Site, crane: int, offsets) -> np.ndarray | None:
+    """Boolean per position: a shape with these cell offsets lies wholly in ``crane``'s zone
+    (``site.reach``); None when the scenario has no reach (every crane reaches everywhere)."""
+    if site.reach is None:
+        return None
+    return fits_everywhere(site.reach[crane], offsets)
 
 
 def goal_positions(sim: Simulator, comp: int, targets: list[int]) -> list[int]:
@@ -93,9 +69,17 @@ def goal_positions(sim: Simulator, comp: int, targets: list[int]) -> list[int]:
     return goals
 
 
-def distance_field(sim: Simulator, comp: int, targets: list[int]) -> np.ndarray:
-    """Moves from every position to the nearest goal (``UNREACHABLE`` where none)."""
-    ok = fit_mask(sim, comp, current_cells(sim, comp))
+def distance_field(
+    sim: Simulator, comp: int, targets: list[int], crane: int | None = None
+) -> np.ndarray:
+    """Moves from every position to the nearest goal (``UNREACHABLE`` where none). With
+    ``crane``, only positions inside that crane's zone count (see ``zone_ok``)."""
+    shape = current_cells(sim, comp)
+    ok = fit_mask(sim, comp, shape)
+    if crane is not None:
+        zone = zone_ok(sim.site, crane, [j - shape[0] for j in shape])
+        if zone is not None:
+            ok &= zone
     return breadth_first(ok, goal_positions(sim, comp, targets), sim.site.move_delta)
 
 

@@ -150,12 +150,13 @@ class ShapeCache:
         self.walls = sim.site.static == WALL
         self._base_key: bytes | None = None
         self._base_free: np.ndarray | None = None
-        self._fit: dict[tuple[int, ...], bytes] = {}
+        self._fit: dict[tuple[tuple[int, ...], int | None], bytes] = {}
         self._h_cache: dict[tuple, list[int]] = {}
         self._h_key: bytes | None = None
 
-    def base_ok(self, sim: Simulator, rel: tuple[int, ...]) -> bytes:
-        """Positions where a component of this shape fits the base (no component in transit)."""
+    def base_ok(self, sim: Simulator, rel: tuple[int, ...], crane: int | None = None) -> bytes:
+        """Positions where a component of this shape fits the base (no component in transit);
+        with ``crane`` and crane reach, only those wholly inside that crane's zone."""
         status = sim.state.status
         key = status.tobytes()
         if key != self._base_key:
@@ -164,10 +165,12 @@ class ShapeCache:
                 if status[comp] == _IN_TRANSIT:
                     free[sim.state.cells[comp]] = True
             self._base_key, self._base_free, self._fit = key, free, {}
-        ok = self._fit.get(rel)
+        zone = None if crane is None or sim.site.reach is None else crane
+        ok = self._fit.get((rel, zone))
         if ok is None:
-            ok = fits_everywhere(self._base_free, rel).tobytes()
-            self._fit[rel] = ok
+            free = self._base_free if zone is None else self._base_free & sim.site.reach[zone]
+            ok = fits_everywhere(free, rel).tobytes()
+            self._fit[(rel, zone)] = ok
         return ok
 
     def heuristic(self, sim: Simulator, rel: tuple[int, ...], goal: int) -> list[int]:

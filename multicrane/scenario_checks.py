@@ -7,6 +7,7 @@ file (through the component's :class:`~multicrane.toml_table.TomlTable`).
 from __future__ import annotations
 
 from multicrane import geometry
+from multicrane.reach import uncarriable
 from multicrane.scenario import Cell, Scenario, ScenarioError
 from multicrane.start import candidate_poses
 from multicrane.toml_table import TomlTable
@@ -103,3 +104,13 @@ def check_scenario(s: Scenario, tables: list[TomlTable]) -> None:
         for i, c in enumerate(s.components):
             if c.initial is None and not c.prebuilt and not candidate_poses(s, c):
                 raise fail(i, "id", "the random start rule has no valid pose for this component")
+
+
+def check_reach(s: Scenario, tables: list[TomlTable]) -> None:
+    """With ``[[crane]]`` entries: every component can be carried from every start it can have
+    to a compatible target by one crane inside its zone (``multicrane.reach``)."""
+    found = uncarriable(s)
+    if found is not None:
+        i, _, problem = found
+        t = tables[i]
+        raise ScenarioError(f"{s.source}: {t.path} (id {s.components[i].id!r}): {problem}")

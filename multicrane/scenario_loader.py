@@ -8,6 +8,7 @@ value; the format is documented in ``scenarios/README.md``.
 from __future__ import annotations
 
 import hashlib
+import math
 import tomllib
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from multicrane.scenario import (
     Band,
     Box,
     ComponentSpec,
+    CraneSpec,
     Pose,
     RandomStart,
     RewardSpec,
@@ -23,7 +25,7 @@ from multicrane.scenario import (
     ScenarioError,
 )
 from multicrane.scenario_catalog import resolve
-from multicrane.scenario_checks import check_scenario
+from multicrane.scenario_checks import check_reach, check_scenario
 from multicrane.toml_table import TomlTable
 from multicrane.types import Kind
 
@@ -91,6 +93,7 @@ class _Builder:
         reward = self._reward(top.table("reward", required=False))
         random_start = self._random_start(top.table("random_start", required=False))
         comp_tables = top.tables("components")
+        crane_specs = self._crane_specs(top)
         top.finish()
         if not comp_tables:
             raise ScenarioError(
@@ -103,9 +106,16 @@ class _Builder:
             self._component(t, ids, random_start is not None, interchangeable) for t in comp_tables
         ]
         order = self._order(rules, ids)
-        cranes = rules.get("cranes", int, 1)
+        cranes = rules.get("cranes", int, len(crane_specs) or 1)
         if cranes < 1:
             raise rules.fail("cranes", cranes, "must be at least 1")
+        if crane_specs and cranes != len(crane_specs):
+            raise rules.fail(
+                "cranes",
+                cranes,
+                f"differs from the {len(crane_specs)} [[crane]] entries (give the same count, "
+                "or leave rules.cranes out)",
+            )
         step_limit = rules.get("step_limit", int)
         if step_limit < 1:
             raise rules.fail("step_limit", step_limit, "must be at least 1")
@@ -135,8 +145,10 @@ class _Builder:
             beam_lift_z=beam_lift_z,
             reward=reward,
             random_start=random_start,
+            crane_specs=crane_specs,
         )
         check_scenario(scenario, comp_tables)
+        check_reach(scenario, comp_tables)
         return scenario
 
     # -- site ------------------------------------------------------------------------------
@@ -199,6 +211,29 @@ class _Builder:
     def _outside(self, cell: tuple[int, ...]) -> str:
         x, y, h = self.size
         return f"lies outside the site (x 0..{x - 1}, y 0..{y - 1}, z 1..{h})"
+
+    # -- crane reach -----------------------------------------------------------------------
+
+    def _crane_specs(self, top: TomlTable) -> tuple[CraneSpec, ...]:
+        """The optional ``[[crane]]`` array: one tower crane (base column, plan radius) each."""
+        if not top.has("crane"):
+            return ()
+        tables = top.tables("crane")
+        if not tables:
+            raise top.fail("crane", [], "needs at least one [[crane]] entry when given")
+        specs = []
+        for t in tables:
+            base = t.ints("base", 2)
+            if not self._in_plan(base):
+                x, y, _ = self.size
+                where = f"x 0..{x - 1}, y 0..{y - 1}"
+                raise t.fail("base", list(base), f"lies outside the site ({where})")
+            radius = t.get("radius", float)
+            if not math.isfinite(radius) or radius <= 0:
+                raise t.fail("radius", radius, "must be a finite number of cells above 0")
+            t.finish()
+            specs.append(CraneSpec(base=base, radius=radius))  # type: ignore[arg-type]
+        return tuple(specs)
 
     # -- reward and random start -------------------------------------------------------------
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from multicrane.legality import Legality
+from multicrane.reach import check_crane_count
 from multicrane.scenario import Scenario
 from multicrane.site import FREE, NOBODY, WALL, Site
 from multicrane.start import Start, draw_start
@@ -51,6 +52,11 @@ class Simulator(Legality):
     list order (a cyclic pointer; beams with no supported free target are skipped), its first
     move lifts it, and it is assembled on arrival. ``auto=False`` is the multi-agent process:
     cranes claim components (the claim lifts it), move them, and assemble them by action.
+
+    With crane reach (``scenario.crane_specs``), ``n_cranes`` (default ``scenario.cranes``)
+    must not exceed the cranes described (the first ``n_cranes`` are used) and those cranes
+    must be able to carry every component (``multicrane.reach``); else ValueError. Each crane
+    then claims, is given and moves only what its zone allows (``multicrane.legality``).
     """
 
     def __init__(self, scenario: Scenario, n_cranes: int | None = None, auto: bool = False):
@@ -60,6 +66,17 @@ class Simulator(Legality):
             raise ValueError(f"n_cranes must be at least 1, got {n_cranes!r}")
         self.auto = auto
         self.site = Site(scenario)
+        self._zones = self.site.reach
+        if self._zones is not None:
+            check_crane_count(scenario, self.n_cranes)
+            site = self.site
+            self._zone_targets = [
+                [
+                    [t for t in site.compatible[c] if site.reaches(k, site.target_cells[t])]
+                    for c in range(site.n_components)
+                ]
+                for k in range(self.n_cranes)
+            ]
         self.start: Start | None = None
         self.state: SiteState | None = None
 
@@ -192,6 +209,9 @@ class Simulator(Legality):
         ):
             out.events.append(Event(t, crane, EventType.ILLEGAL, comp, detail=f"claim {comp}"))
             return
+        if self._zones is not None and not self.in_reach(crane, comp):
+            out.events.append(Event(t, crane, EventType.ILLEGAL, comp, detail="reach"))
+            return
         if not self.fits(comp, st.pickup[comp]):
             out.events.append(Event(t, crane, EventType.LIFT_BLOCKED, comp))
             return
@@ -220,6 +240,9 @@ class Simulator(Legality):
             out.events.append(
                 Event(st.step_count, crane, EventType.BLOCKED, comp, detail=str(move))
             )
+            return
+        if self._zones is not None and not self.move_in_reach(crane, comp, move):
+            out.events.append(Event(st.step_count, crane, EventType.BLOCKED, comp, detail="reach"))
             return
         d = self.site.move_delta[move]
         self._place(comp, [j + d for j in st.cells[comp]])
@@ -302,9 +325,10 @@ class Simulator(Legality):
                 continue
             if self.site.kind[comp] == _BEAM and not self._has_ready[comp]:
                 continue
+            if self._zones is not None and not self.in_reach(crane, comp):
+                continue  # out of this crane's reach: skipped like a beam with no target
             st.held[crane] = comp
             st.holder[comp] = crane
             self._changed.add(comp)
             events.append(Event(st.step_count, crane, EventType.ASSIGNED, comp))
             return
-

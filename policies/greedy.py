@@ -7,6 +7,9 @@ is blocked (by a component that moved, or a crane that acted first this step) th
 and replans; after ``patience`` blocked steps in a row it makes a random legal move, which
 breaks the deadlocks two cranes can get into. It reads the simulator state (a planner, not a
 learned policy) and acts through the environment's normal actions and masks.
+
+With crane reach, the masks let a crane claim only what it can carry, and its shortest paths
+stay inside its zone (``multicrane.paths.distance_field`` with the crane).
 """
 
 from __future__ import annotations
@@ -49,7 +52,7 @@ class GreedyPolicy:
             return self._claim(sim, mask, taken)
         if sim.state.status[comp] == Status.ARRIVED:
             return ASSEMBLE if mask[ASSEMBLE] else WAIT
-        move = self._step_towards_target(sim, comp)
+        move = self._step_towards_target(sim, crane, comp)
         if move is not None and mask[move]:
             self._stuck[comp] = 0
             return move
@@ -63,13 +66,13 @@ class GreedyPolicy:
                 return int(moves[self.rng.integers(len(moves))])
         return WAIT
 
-    def _step_towards_target(self, sim: Simulator, comp: int) -> int | None:
+    def _step_towards_target(self, sim: Simulator, crane: int, comp: int) -> int | None:
         targets = tuple(sim.ready_targets(comp))
         if not targets:
             return None
         cached = self._fields.get(comp)
         if cached is None or cached[0] != targets:
-            cached = (targets, distance_field(sim, comp, list(targets)))
+            cached = (targets, distance_field(sim, comp, list(targets), crane))
             self._fields[comp] = cached
         dist = cached[1]
         here = current_cells(sim, comp)[0]
@@ -78,7 +81,7 @@ class GreedyPolicy:
         move = next_move(sim, comp, dist)
         if move is not None and not sim.move_ok(comp, move):
             # The world changed under the cached field: search again once.
-            dist = distance_field(sim, comp, list(targets))
+            dist = distance_field(sim, comp, list(targets), crane)
             self._fields[comp] = (targets, dist)
             move = next_move(sim, comp, dist)
         return move

@@ -256,12 +256,13 @@ class PrioritizedPlanner:
 
     def _search(
         self, comp: int, rel: tuple[int, ...], start: int, t_start: int, goal: int,
-        stops: set[int], res: ReservationTable,
+        stops: set[int], res: ReservationTable, crane: int | None = None,
     ) -> list[int] | None:  # fmt: skip
-        """Space-time A* (counted in ``stats``): positions from ``t_start`` to the arrival."""
+        """Space-time A* (counted in ``stats``): positions from ``t_start`` to the arrival,
+        inside ``crane``'s zone under crane reach."""
         self.stats["searches"] += 1
         sim = self.sim
-        ok = self._shapes.base_ok(sim, rel)
+        ok = self._shapes.base_ok(sim, rel, crane)
         h = self._shapes.heuristic(sim, rel, goal)
         path, expansions = space_time_search(
             res, comp, rel, start, t_start, goal, stops, ok, h,
@@ -287,11 +288,13 @@ class PrioritizedPlanner:
             if goal is not None:
                 options.append((manhattan(here, sim.site.cell(goal)), t, goal))
         options.sort()
+        crane = int(sim.state.holder[comp])
         for _, t, goal in options[:3]:
-            path = self._search(comp, rel, start, T, goal, self._stops(comp, rel, t), res)
+            stops = self._stops(comp, rel, t)
+            path = self._search(comp, rel, start, T, goal, stops, res, crane)
             if path is not None:
                 res.release(comp)
-                plan = Plan(comp, int(sim.state.holder[comp]), t, T, path, claim=False)
+                plan = Plan(comp, crane, t, T, path, claim=False)
                 self._new_plan(plan)
                 self._reserve_plan(res, plan, T)
                 return True
@@ -380,11 +383,15 @@ class PrioritizedPlanner:
             start = pick[0]
             if start in stops:
                 continue  # it would arrive at another target on being lifted
+            # Under crane reach: the first idle crane whose zone holds the pick-up pose and t.
+            crane = next((k for k in idle if _carries(sim, k, comp, t)), None)
+            if crane is None:
+                continue
             searches += 1
-            path = self._search(comp, rel, start, T + 1, goal, stops, res)
+            path = self._search(comp, rel, start, T + 1, goal, stops, res, crane)
             if path is None:
                 continue
-            crane = idle.pop(0)
+            idle.remove(crane)
             plan = Plan(comp, crane, t, T + 1, path, claim=True)
             self._new_plan(plan)
             self._reserve_plan(res, plan, T)
@@ -393,3 +400,11 @@ class PrioritizedPlanner:
             used_t.add(t)
             self.stats["claims"] += 1
         return claims
+
+
+def _carries(sim: Simulator, crane: int, comp: int, target: int) -> bool:
+    """Crane reach: the crane's zone holds the component's pick-up pose and the target."""
+    site = sim.site
+    return site.reaches(crane, sim.state.pickup[comp]) and site.reaches(
+        crane, site.target_cells[target]
+    )

@@ -1,8 +1,9 @@
 """Shared helpers for the environment tests.
 
 ``SCENARIOS`` (every shipped scenario, read once at import so that test modules can build their
-parametrization from it) and ``random_masked_actions`` (a uniformly random legal action per
-agent) are imported by the test modules with ``from conftest import ...``; the fixtures below
+parametrization from it), ``reach_skip`` (why a scenario cannot run with a crane count under
+crane reach) and ``random_masked_actions`` (a uniformly random legal action per agent) are
+imported by the test modules with ``from conftest import ...``; the fixtures below
 hand the same objects to tests that prefer fixtures.
 """
 
@@ -19,6 +20,16 @@ import pytest  # noqa: E402
 import multicrane  # noqa: E402
 
 SCENARIOS: list[str] = multicrane.scenario_names()
+
+
+def reach_skip(name: str, n_cranes: int | None) -> str | None:
+    """Why a shipped scenario cannot run with ``n_cranes`` cranes (a tower-crane scenario
+    with crane reach needs enough of its own cranes), or None when it can."""
+    from multicrane.reach import crane_count_problem
+    from multicrane.scenario_loader import load_scenario
+
+    scenario = load_scenario(name)
+    return crane_count_problem(scenario, scenario.cranes if n_cranes is None else n_cranes)
 
 
 def random_masked_actions(obs: dict, rng: np.random.Generator) -> dict[str, int]:

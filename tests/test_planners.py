@@ -12,7 +12,7 @@ from functools import cache
 from pathlib import Path
 
 import pytest
-from conftest import SCENARIOS
+from conftest import SCENARIOS, reach_skip
 
 import multicrane
 from multicrane.rollout import evaluate, run_episode, summarise
@@ -40,6 +40,8 @@ def prioritized_episode(scenario: str, n: int, seed: int) -> tuple[dict, dict]:
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_prioritized_completes_every_scenario_without_blocked_moves(scenario):
     for n, seed in itertools.product(CRANES, SEEDS):
+        if reach_skip(scenario, n):
+            continue  # crane reach: this tower-crane scenario needs more of its cranes
         m, stats = prioritized_episode(scenario, n, seed)
         where = f"{scenario} with {n} cranes, seed {seed}"
         assert m["success"], f"{where}: not completed in {m['steps']} steps"

@@ -17,7 +17,9 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+from multicrane.reach import crane_count_problem
 from multicrane.rollout import evaluate, run_episode
+from multicrane.scenario_loader import load_scenario
 
 PLANNERS = ("greedy", "prioritized")
 PAPER = re.compile(r"^e[1-4]s[1-4]$")
@@ -76,6 +78,8 @@ class Results:
     cells: dict[tuple[str, int, str], Cell]
     optimal: dict[str, Optimal]
     wall: float
+    # (scenario, cranes) settings not run, with the reason (crane reach: too few cranes)
+    skipped: dict[tuple[str, int], str] = field(default_factory=dict)
 
 
 def run_cell(
@@ -134,9 +138,16 @@ def run_all(
 
     cells: dict[tuple[str, int, str], Cell] = {}
     optimal: dict[str, Optimal] = {}
+    skipped: dict[tuple[str, int], str] = {}
     start = time.perf_counter()
     for name in setup.scenarios:
         for n in setup.cranes:
+            problem = crane_count_problem(load_scenario(name), n)
+            if problem is not None:  # a tower-crane scenario needs more of its cranes
+                skipped[name, n] = problem
+                if log is not None:
+                    log(f"{name:<10} {n} skipped: {problem}")
+                continue
             env = parallel_env(name, n_cranes=n)
             for policy in setup.policies:
                 seeds = setup.seeds_of(policy)
@@ -153,4 +164,4 @@ def run_all(
                     )
         if setup.optimal and make_optimal and PAPER.match(name) and 1 in setup.cranes:
             optimal[name] = run_optimal(name, make_optimal, setup.seeds_of("prioritized"))
-    return Results(setup, cells, optimal, time.perf_counter() - start)
+    return Results(setup, cells, optimal, time.perf_counter() - start, skipped)
