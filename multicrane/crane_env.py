@@ -16,10 +16,13 @@ from multicrane.render import render_ansi
 from multicrane.scenario import Scenario
 from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
+from multicrane.task_mode import TaskMode
 from multicrane.transitions import table_text
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
 
 ENV_VERSION = 0
+DECISIONS = ("motion", "task")
+REWARDS = ("paper", "makespan")
 _INITIAL = int(Status.INITIAL)
 
 
@@ -85,12 +88,29 @@ class MultiCraneEnv(ParallelEnv):
         strict: bool = False,
         max_steps: int | None = None,
         render_mode: str | None = None,
+        decisions: str = "motion",
+        reward: str = "paper",
+        task_patience: int = 20,
+        task_site_planes: bool = False,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+        if decisions not in DECISIONS:
+            raise ValueError(f"decisions must be one of {DECISIONS}, got {decisions!r}")
+        if reward not in REWARDS:
+            raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
+        if decisions == "task" and auto:
+            raise ValueError("decisions='task' needs the claiming mode, not auto=True")
+        self.decisions = decisions
+        self.reward = reward
         self.scenario = load_scenario(scenario)
         self.sim = Simulator(self.scenario, n_cranes=n_cranes, auto=auto)
-        self.observer = Observer(self.sim)
+        self.task_mode: TaskMode | None = None
+        if decisions == "task":
+            self.task_mode = TaskMode(self, task_patience, task_site_planes)
+            self.observer = self.task_mode.observer
+        else:
+            self.observer = Observer(self.sim)
         self.observation_layout = self.observer.layout
         self.auto = auto
         self.strict = strict
@@ -101,11 +121,13 @@ class MultiCraneEnv(ParallelEnv):
         n = self.sim.n_cranes
         self.possible_agents = [f"crane_{i}" for i in range(n)]
         self.agents: list[str] = []
-        self._action_space = spaces.Discrete(self.sim.site.n_actions)
+        n_actions = self.sim.site.n_actions if self.task_mode is None else self.task_mode.n_actions
+        self.n_actions = n_actions
+        self._action_space = spaces.Discrete(n_actions)
         self._observation_space = spaces.Dict(
             {
                 "observation": spaces.Box(0.0, 1.0, (self.observer.layout.size,), np.float32),
-                "action_mask": spaces.Box(0, 1, (self.sim.site.n_actions,), np.int8),
+                "action_mask": spaces.Box(0, 1, (n_actions,), np.int8),
             }
         )
         self._rng: np.random.Generator | None = None
@@ -128,6 +150,8 @@ class MultiCraneEnv(ParallelEnv):
         self.observer.reset(self.step_limit)
         self.agents = list(self.possible_agents)
         self.total_reward = 0.0
+        if self.task_mode is not None:
+            self.task_mode.reset()
         observations = self._observe()
         infos = {
             a: {"events": (), "reward_term": 0.0, "action_mask": self._masks[i]}
@@ -138,19 +162,14 @@ class MultiCraneEnv(ParallelEnv):
     def step(self, actions: dict[str, Any]):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode: call reset() first")
-        sim = self.sim
         joint = self._joint_action(actions)
-        n = sim.n_cranes
-        order = self._rng.permutation(n).tolist() if n > 1 else None
-        out = sim.step(joint, order)
-
-        # Reward: from the step's outcome (see multicrane.reward).
-        r, progress_by, over = reward_rules.step_reward(sim, out)
-        terms = reward_rules.split(r, n, progress_by, over)
-        complete = sim.done
+        if self.task_mode is not None:
+            return self.task_mode.step(joint)
+        n = self.sim.n_cranes
+        out, r, terms, _ = self._physical_step(joint)
+        complete = self.sim.done
         self.total_reward += r
-
-        truncated = not complete and sim.state.step_count >= self.step_limit
+        truncated = not complete and self.sim.state.step_count >= self.step_limit
         observations = self._observe()
         per_crane: list[list[Event]] = [[] for _ in range(n)]
         for e in out.events:
@@ -171,22 +190,44 @@ class MultiCraneEnv(ParallelEnv):
             self.agents = []
         return observations, rewards, terminations, truncations, infos
 
+    def _physical_step(self, joint: list[int]):
+        """One simulated step with one motion action per crane (the crane order drawn from
+        the episode's generator): ``(outcome, reward, reward terms, paper reward)``."""
+        sim = self.sim
+        n = sim.n_cranes
+        order = self._rng.permutation(n).tolist() if n > 1 else None
+        out = sim.step(joint, order)
+        # Reward: from the step's outcome (see multicrane.reward).
+        paper, progress_by, over = reward_rules.step_reward(sim, out)
+        if self.reward == "paper":
+            return out, paper, reward_rules.split(paper, n, progress_by, over), paper
+        r = reward_rules.makespan_reward(sim.scenario.reward, sim.done)
+        return out, r, [r / n] * n, paper
+
     def _joint_action(self, actions: dict[str, Any]) -> list[int]:
         joint = []
         for i, agent in enumerate(self.possible_agents):
             if agent not in actions:
                 raise KeyError(f"step(): no action for {agent!r}; every crane acts every step")
             a = int(actions[agent])
-            if not 0 <= a < self.sim.site.n_actions:
+            if not 0 <= a < self.n_actions:
                 raise ValueError(
-                    f"step(): {agent} sent action {a}, outside 0..{self.sim.site.n_actions - 1}"
+                    f"step(): {agent} sent action {a}, outside 0..{self.n_actions - 1}"
                 )
             if self.strict and not self._masks[i][a]:
-                raise ValueError(f"step(): {agent} sent illegal action {a} ({describe_action(a)})")
+                what = describe_action(a) if self.task_mode is None else self.task_mode.describe(a)
+                raise ValueError(f"step(): {agent} sent illegal action {a} ({what})")
             joint.append(a)
         return joint
 
     def _observe(self) -> dict[str, dict[str, np.ndarray]]:
+        if self.task_mode is not None:
+            obs = self.task_mode.observe()
+            self._masks = list(self.observer.masks)
+            return {
+                a: {"observation": obs[i], "action_mask": self._masks[i]}
+                for i, a in enumerate(self.possible_agents)
+            }
         sim = self.sim
         claimable = sim.claimable_components()
         if self.auto:
@@ -202,6 +243,14 @@ class MultiCraneEnv(ParallelEnv):
         }
 
     # -- extras --------------------------------------------------------------------------------
+
+    def task_feasible(self, crane: int, task: int) -> bool:
+        """Task mode: would ``task`` start for ``crane`` now (the carrier's space-time search
+        succeeds)? The plan found is kept and used if the crane chooses the task in the next
+        ``step`` (see ``multicrane.tasks.TaskBook.feasible``)."""
+        if self.task_mode is None:
+            raise RuntimeError("task_feasible() needs decisions='task'")
+        return self.task_mode.feasible(int(crane), int(task))
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """The current legal-action mask of every crane."""
