@@ -67,7 +67,8 @@ def multi_env(cfg: TrainConfig):
     from multicrane.crane_env import MultiCraneEnv
 
     return MultiCraneEnv(
-        cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto, max_steps=cfg.max_steps
+        cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto, max_steps=cfg.max_steps,
+        decisions=cfg.decisions,
     )
 
 
