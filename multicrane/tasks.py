@@ -16,12 +16,14 @@ searches done once per start pose and cached). The mask does not run the space-t
 **Hold, retry, drop.** A chosen task is handed to the carrier (``multicrane.carrier``). If
 its space-time search fails now, the crane *holds* the task: it is busy, nothing is lifted,
 the component and target are kept for it, and the search is tried again before every
-simulated step; after ``patience`` steps without a path the task is dropped and the crane
-is idle again (a ``TASK_DROPPED`` task event). Task events are ``(name, crane, task)``
-tuples: ``TASK_STARTED`` (the carrier has a path: the claim is the next step),
-``TASK_HELD`` (chosen, no path yet), ``TASK_DROPPED``, ``TASK_REFUSED`` (the choice was not
-allowed, e.g. an earlier crane took the component or target this round: treated as wait)
-and ``TASK_DONE`` (the component is assembled).
+simulated step; when ``patience`` simulated steps have passed since it was chosen without a
+path, the task is dropped after that step and the crane is idle again (a ``TASK_DROPPED``
+task event; the environment's step returns then, as for any crane becoming idle).
+
+Task events are ``(name, crane, task)`` tuples: ``TASK_STARTED`` (the carrier has a path:
+the claim is the next step), ``TASK_HELD`` (chosen, no path yet), ``TASK_DROPPED``,
+``TASK_REFUSED`` (the choice was not allowed, e.g. an earlier crane took the component or
+target this round: treated as wait) and ``TASK_DONE`` (the component is assembled).
 """
 
 from __future__ import annotations
@@ -108,6 +110,7 @@ class TaskBook:
         self.task: list[int] = [NOBODY] * n  # crane -> task index, NOBODY when idle
         self.since = [0] * n  # when the task was chosen (for the patience)
         self.started = [False] * n  # the carrier has it (claimed or carrying)
+        self._tried = [-1] * n  # when the held task's search last ran
         self._probe: dict[int, int] = {}  # crane -> task started by task_feasible this round
         self._probe_t: int | None = None
         self._infeasible: set[tuple[int, int]] = set()
@@ -236,6 +239,7 @@ class TaskBook:
         self.started[crane] = False
 
     def _try(self, crane: int, p: int) -> TaskEvent:
+        self._tried[crane] = self.sim.state.step_count
         c, t = self.tasks.pairs[p]
         if self.carrier.try_start(crane, int(c), int(t)):
             self.started[crane] = True
@@ -249,15 +253,12 @@ class TaskBook:
         self.carrier.begin(T)
         for k in range(self.sim.n_cranes):
             p = self.task[k]
-            if p == NOBODY or self.started[k]:
+            if p == NOBODY or self.started[k] or self._tried[k] == T:
                 continue
             c, t = self.tasks.pairs[p]
             if self.carrier.try_start(k, int(c), int(t)):
                 self.started[k] = True
                 events.append(("TASK_STARTED", k, p))
-            elif T - self.since[k] >= self.patience:
-                self.task[k] = NOBODY
-                events.append(("TASK_DROPPED", k, p))
         return self.carrier.actions(T)
 
     def after_step(self, events: list[TaskEvent]) -> bool:
@@ -266,7 +267,13 @@ class TaskBook:
         freed = False
         for k in range(self.sim.n_cranes):
             p = self.task[k]
-            if p == NOBODY or not self.started[k]:
+            if p == NOBODY:
+                continue
+            if not self.started[k]:
+                if st.step_count - self.since[k] >= self.patience:
+                    self.task[k] = NOBODY
+                    freed = True
+                    events.append(("TASK_DROPPED", k, p))
                 continue
             if st.held[k] != NOBODY or st.assembling[k]:
                 continue
