@@ -48,6 +48,22 @@ class MultiCraneEnv(ParallelEnv):
     arrival; claim and assemble actions are masked out. With one crane this is exactly the
     paper's single-agent process (``docs/paper-spec.md`` section 5).
 
+    **Task level** (``decisions="task"``; default ``"motion"``: everything above). Each crane
+    decides which task it does next instead of every move: ``Discrete(1 + P)``, P the
+    (component, compatible target) pairs of the scenario numbered component-major
+    (``multicrane.tasks.TaskList``): ``0`` wait (a busy crane: continue), ``1 + p`` take task
+    ``p``. An idle crane's mask allows the tasks whose component is claimable and not another
+    crane's, whose target is free, ready and not another crane's, and that the crane can
+    carry (reach, a static path); a busy crane's allows only ``0``. The environment's carrier
+    (``multicrane.carrier``) carries the component along a reserved space-time path with the
+    ordinary motion actions, and ``step`` advances simulated time until some crane becomes
+    idle, an idle crane has an allowed task, or the episode ends (at least one simulated
+    step). A task whose path search fails is held and retried each step, and dropped after
+    ``task_patience`` (20) steps. The observation is the task tables of
+    ``multicrane.task_observation`` (``task_site_planes=True`` adds the site planes).
+    ``infos`` add ``elapsed`` (simulated steps), ``task_events`` and ``crane_steps``;
+    ``env.task_feasible(crane, p)`` runs the search for a planner. See ``docs/task-mode.md``.
+
     **Observation.** ``{"observation": float32 vector in [0, 1], "action_mask": int8 vector}``.
     The vector is the site as (X, Y, 9) height planes, a (C, 14) component table and a 9-value
     crane vector; see ``multicrane.observation`` and ``env.observation_layout.split(obs)``.
@@ -58,16 +74,21 @@ class MultiCraneEnv(ParallelEnv):
     that finishes the building, otherwise ``-over_limit_cost`` (2) while a crane holds a
     component past ``move_limit`` (15) moves and ``-step_cost / (k + 1)`` else, ``k`` the
     components assembled this episode. For one crane in automatic mode this is exactly the
-    paper's reward. ``infos[agent]`` holds ``events`` (this crane's ``Event`` tuples),
+    paper's reward (``reward="paper"``, the default). ``reward="makespan"``: ``-1`` per
+    simulated step for the team, plus ``completion`` on the finishing step (so the return is
+    ``completion - makespan``). In task mode the reward of a step is the sum over the
+    simulated steps it advanced. ``infos[agent]`` holds ``events`` (this crane's ``Event`` tuples),
     ``reward_term`` (its share; the shares add up to the team reward) and ``action_mask``.
 
     **Termination / truncation.** Terminated when every component is assembled; truncated at
-    the step limit (the scenario's, or ``max_steps``) if not terminated.
+    the step limit (the scenario's, or ``max_steps``) if not terminated. The clock is the
+    simulator's step count in both decision levels (step limit, makespan, metrics).
 
     **Arguments.** ``scenario`` (shipped name like ``"e3s2"``, a path, or a ``Scenario``),
     ``n_cranes`` (default: the scenario's), ``auto`` (False), ``strict`` (False),
     ``max_steps`` (default: the scenario's ``step_limit``), ``render_mode`` (None or
-    ``"ansi"``).
+    ``"ansi"``), ``decisions`` (``"motion"`` or ``"task"``), ``reward`` (``"paper"`` or
+    ``"makespan"``), ``task_patience`` (20), ``task_site_planes`` (False).
 
     **Version history.** v0: first release.
 
