@@ -342,3 +342,36 @@ def test_maskable_ppo_trains_in_task_mode(tmp_path):
     result = train(cfg, tmp_path / "run", log=lambda *a, **k: None)
     assert result is not None and result["steps"] >= 2048
     assert result["final"]["episodes"] == 2
+
+
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_clone_mid_episode_continues_identically(how):
+    import copy
+    import pickle
+
+    env = task_env("hall-4c", 3)
+    obs, _ = env.reset(seed=5)
+    rng = np.random.default_rng(5)
+    for _ in range(4):
+        obs, *_ = env.step(random_tasks(obs, rng))
+    clone = pickle.loads(pickle.dumps(env)) if how == "pickle" else copy.deepcopy(env)
+    obs_b = obs
+    r1, r2 = np.random.default_rng(6), np.random.default_rng(6)
+    while env.agents:
+        obs, *_ = env.step(random_tasks(obs, r1))
+        obs_b, *_ = clone.step(random_tasks(obs_b, r2))
+        for a in obs:
+            assert np.array_equal(obs[a]["observation"], obs_b[a]["observation"])
+            assert np.array_equal(obs[a]["action_mask"], obs_b[a]["action_mask"])
+    assert not clone.agents
+    assert clone.task_mode.trace == env.task_mode.trace
+
+
+def test_bench_task_mode(capsys):
+    from multicrane.cli import main
+
+    assert main(["bench", "--decisions", "task", "--scenario", "e3s2", "--cranes", "2",
+                 "--steps", "10"]) == 0  # fmt: skip
+    out = capsys.readouterr().out
+    assert "rounds/s" in out and "p95 ms" in out
+    assert "prioritized" in out and "random" in out
