@@ -207,8 +207,9 @@ class TaskBook:
     # -- choices and steps -----------------------------------------------------------------
 
     def choose(self, choices: list[int]) -> list[TaskEvent]:
-        """Idle cranes' choices (``0`` wait, ``1 + p`` task ``p``), in crane order; a task no
-        longer allowed (taken by an earlier crane this round) is refused: the crane waits."""
+        """Idle cranes' choices (``0`` wait, ``1 + p`` task ``p``): first those that
+        ``feasible`` already started, then the others in crane order; a task no longer
+        allowed (its component or target taken this round) is refused: the crane waits."""
         T = self.sim.state.step_count
         probes = self._probe if self._probe_t == T else {}
         for k, p in list(probes.items()):
@@ -216,15 +217,14 @@ class TaskBook:
                 self.carrier.cancel(k)
                 del probes[k]
         events: list[TaskEvent] = []
+        for k, p in sorted(probes.items()):  # already started by the probe: taken first
+            self._take(k, p, T)
+            self.started[k] = True
+            events.append(("TASK_STARTED", k, p))
         for k, a in enumerate(choices):
             if a == 0 or self.task[k] != NOBODY:
                 continue
             p = a - 1
-            if k in probes:  # already started by the probe
-                self._take(k, p, T)
-                self.started[k] = True
-                events.append(("TASK_STARTED", k, p))
-                continue
             if not self.allowed()[k, p]:
                 events.append(("TASK_REFUSED", k, p))
                 continue

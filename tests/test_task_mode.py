@@ -375,3 +375,14 @@ def test_bench_task_mode(capsys):
     out = capsys.readouterr().out
     assert "rounds/s" in out and "p95 ms" in out
     assert "prioritized" in out and "random" in out
+
+
+def test_a_probed_task_wins_over_a_plain_choice_of_the_same_component():
+    env = task_env("e3s2", 2)
+    obs, _ = env.reset(seed=0)
+    p = int(np.flatnonzero(obs["crane_1"]["action_mask"][1:])[0])
+    assert env.task_feasible(1, p)
+    _, _, _, _, infos = env.step({"crane_0": 1 + p, "crane_1": 1 + p})
+    assert ("TASK_REFUSED", 0, p) in infos["crane_0"]["task_events"]
+    book = env.task_mode.book
+    assert book.task[0] == -1 or book.tasks.comp[book.task[0]] != book.tasks.comp[p]
