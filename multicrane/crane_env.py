@@ -16,10 +16,13 @@ from multicrane.render import render_ansi
 from multicrane.scenario import Scenario
 from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
+from multicrane.task_mode import TaskMode
 from multicrane.transitions import table_text
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
 
 ENV_VERSION = 0
+DECISIONS = ("motion", "task")
+REWARDS = ("paper", "makespan")
 _INITIAL = int(Status.INITIAL)
 
 
@@ -45,6 +48,22 @@ class MultiCraneEnv(ParallelEnv):
     arrival; claim and assemble actions are masked out. With one crane this is exactly the
     paper's single-agent process (``docs/paper-spec.md`` section 5).
 
+    **Task level** (``decisions="task"``; default ``"motion"``: everything above). Each crane
+    decides which task it does next instead of every move: ``Discrete(1 + P)``, P the
+    (component, compatible target) pairs of the scenario numbered component-major
+    (``multicrane.tasks.TaskList``): ``0`` wait (a busy crane: continue), ``1 + p`` take task
+    ``p``. An idle crane's mask allows the tasks whose component is claimable and not another
+    crane's, whose target is free, ready and not another crane's, and that the crane can
+    carry (reach, a static path); a busy crane's allows only ``0``. The environment's carrier
+    (``multicrane.carrier``) carries the component along a reserved space-time path with the
+    ordinary motion actions, and ``step`` advances simulated time until some crane becomes
+    idle, an idle crane has an allowed task, or the episode ends (at least one simulated
+    step). A task whose path search fails is held and retried each step, and dropped after
+    ``task_patience`` (20) steps. The observation is the task tables of
+    ``multicrane.task_observation`` (``task_site_planes=True`` adds the site planes).
+    ``infos`` add ``elapsed`` (simulated steps), ``task_events`` and ``crane_steps``;
+    ``env.task_feasible(crane, p)`` runs the search for a planner. See ``docs/task-mode.md``.
+
     **Observation.** ``{"observation": float32 vector in [0, 1], "action_mask": int8 vector}``.
     The vector is the site as (X, Y, 9) height planes, a (C, 14) component table and a 9-value
     crane vector; see ``multicrane.observation`` and ``env.observation_layout.split(obs)``.
@@ -55,16 +74,21 @@ class MultiCraneEnv(ParallelEnv):
     that finishes the building, otherwise ``-over_limit_cost`` (2) while a crane holds a
     component past ``move_limit`` (15) moves and ``-step_cost / (k + 1)`` else, ``k`` the
     components assembled this episode. For one crane in automatic mode this is exactly the
-    paper's reward. ``infos[agent]`` holds ``events`` (this crane's ``Event`` tuples),
+    paper's reward (``reward="paper"``, the default). ``reward="makespan"``: ``-1`` per
+    simulated step for the team, plus ``completion`` on the finishing step (so the return is
+    ``completion - makespan``). In task mode the reward of a step is the sum over the
+    simulated steps it advanced. ``infos[agent]`` holds ``events`` (this crane's ``Event`` tuples),
     ``reward_term`` (its share; the shares add up to the team reward) and ``action_mask``.
 
     **Termination / truncation.** Terminated when every component is assembled; truncated at
-    the step limit (the scenario's, or ``max_steps``) if not terminated.
+    the step limit (the scenario's, or ``max_steps``) if not terminated. The clock is the
+    simulator's step count in both decision levels (step limit, makespan, metrics).
 
     **Arguments.** ``scenario`` (shipped name like ``"e3s2"``, a path, or a ``Scenario``),
     ``n_cranes`` (default: the scenario's), ``auto`` (False), ``strict`` (False),
     ``max_steps`` (default: the scenario's ``step_limit``), ``render_mode`` (None or
-    ``"ansi"``).
+    ``"ansi"``), ``decisions`` (``"motion"`` or ``"task"``), ``reward`` (``"paper"`` or
+    ``"makespan"``), ``task_patience`` (20), ``task_site_planes`` (False).
 
     **Version history.** v0: first release.
 
@@ -85,12 +109,29 @@ class MultiCraneEnv(ParallelEnv):
         strict: bool = False,
         max_steps: int | None = None,
         render_mode: str | None = None,
+        decisions: str = "motion",
+        reward: str = "paper",
+        task_patience: int = 20,
+        task_site_planes: bool = False,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+        if decisions not in DECISIONS:
+            raise ValueError(f"decisions must be one of {DECISIONS}, got {decisions!r}")
+        if reward not in REWARDS:
+            raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
+        if decisions == "task" and auto:
+            raise ValueError("decisions='task' needs the claiming mode, not auto=True")
+        self.decisions = decisions
+        self.reward = reward
         self.scenario = load_scenario(scenario)
         self.sim = Simulator(self.scenario, n_cranes=n_cranes, auto=auto)
-        self.observer = Observer(self.sim)
+        self.task_mode: TaskMode | None = None
+        if decisions == "task":
+            self.task_mode = TaskMode(self, task_patience, task_site_planes)
+            self.observer = self.task_mode.observer
+        else:
+            self.observer = Observer(self.sim)
         self.observation_layout = self.observer.layout
         self.auto = auto
         self.strict = strict
@@ -101,11 +142,13 @@ class MultiCraneEnv(ParallelEnv):
         n = self.sim.n_cranes
         self.possible_agents = [f"crane_{i}" for i in range(n)]
         self.agents: list[str] = []
-        self._action_space = spaces.Discrete(self.sim.site.n_actions)
+        n_actions = self.sim.site.n_actions if self.task_mode is None else self.task_mode.n_actions
+        self.n_actions = n_actions
+        self._action_space = spaces.Discrete(n_actions)
         self._observation_space = spaces.Dict(
             {
                 "observation": spaces.Box(0.0, 1.0, (self.observer.layout.size,), np.float32),
-                "action_mask": spaces.Box(0, 1, (self.sim.site.n_actions,), np.int8),
+                "action_mask": spaces.Box(0, 1, (n_actions,), np.int8),
             }
         )
         self._rng: np.random.Generator | None = None
@@ -128,6 +171,8 @@ class MultiCraneEnv(ParallelEnv):
         self.observer.reset(self.step_limit)
         self.agents = list(self.possible_agents)
         self.total_reward = 0.0
+        if self.task_mode is not None:
+            self.task_mode.reset()
         observations = self._observe()
         infos = {
             a: {"events": (), "reward_term": 0.0, "action_mask": self._masks[i]}
@@ -138,19 +183,14 @@ class MultiCraneEnv(ParallelEnv):
     def step(self, actions: dict[str, Any]):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode: call reset() first")
-        sim = self.sim
         joint = self._joint_action(actions)
-        n = sim.n_cranes
-        order = self._rng.permutation(n).tolist() if n > 1 else None
-        out = sim.step(joint, order)
-
-        # Reward: from the step's outcome (see multicrane.reward).
-        r, progress_by, over = reward_rules.step_reward(sim, out)
-        terms = reward_rules.split(r, n, progress_by, over)
-        complete = sim.done
+        if self.task_mode is not None:
+            return self.task_mode.step(joint)
+        n = self.sim.n_cranes
+        out, r, terms, _ = self._physical_step(joint)
+        complete = self.sim.done
         self.total_reward += r
-
-        truncated = not complete and sim.state.step_count >= self.step_limit
+        truncated = not complete and self.sim.state.step_count >= self.step_limit
         observations = self._observe()
         per_crane: list[list[Event]] = [[] for _ in range(n)]
         for e in out.events:
@@ -171,22 +211,44 @@ class MultiCraneEnv(ParallelEnv):
             self.agents = []
         return observations, rewards, terminations, truncations, infos
 
+    def _physical_step(self, joint: list[int]):
+        """One simulated step with one motion action per crane (the crane order drawn from
+        the episode's generator): ``(outcome, reward, reward terms, paper reward)``."""
+        sim = self.sim
+        n = sim.n_cranes
+        order = self._rng.permutation(n).tolist() if n > 1 else None
+        out = sim.step(joint, order)
+        # Reward: from the step's outcome (see multicrane.reward).
+        paper, progress_by, over = reward_rules.step_reward(sim, out)
+        if self.reward == "paper":
+            return out, paper, reward_rules.split(paper, n, progress_by, over), paper
+        r = reward_rules.makespan_reward(sim.scenario.reward, sim.done)
+        return out, r, [r / n] * n, paper
+
     def _joint_action(self, actions: dict[str, Any]) -> list[int]:
         joint = []
         for i, agent in enumerate(self.possible_agents):
             if agent not in actions:
                 raise KeyError(f"step(): no action for {agent!r}; every crane acts every step")
             a = int(actions[agent])
-            if not 0 <= a < self.sim.site.n_actions:
+            if not 0 <= a < self.n_actions:
                 raise ValueError(
-                    f"step(): {agent} sent action {a}, outside 0..{self.sim.site.n_actions - 1}"
+                    f"step(): {agent} sent action {a}, outside 0..{self.n_actions - 1}"
                 )
             if self.strict and not self._masks[i][a]:
-                raise ValueError(f"step(): {agent} sent illegal action {a} ({describe_action(a)})")
+                what = describe_action(a) if self.task_mode is None else self.task_mode.describe(a)
+                raise ValueError(f"step(): {agent} sent illegal action {a} ({what})")
             joint.append(a)
         return joint
 
     def _observe(self) -> dict[str, dict[str, np.ndarray]]:
+        if self.task_mode is not None:
+            obs = self.task_mode.observe()
+            self._masks = list(self.observer.masks)
+            return {
+                a: {"observation": obs[i], "action_mask": self._masks[i]}
+                for i, a in enumerate(self.possible_agents)
+            }
         sim = self.sim
         claimable = sim.claimable_components()
         if self.auto:
@@ -202,6 +264,14 @@ class MultiCraneEnv(ParallelEnv):
         }
 
     # -- extras --------------------------------------------------------------------------------
+
+    def task_feasible(self, crane: int, task: int) -> bool:
+        """Task mode: would ``task`` start for ``crane`` now (the carrier's space-time search
+        succeeds)? The plan found is kept and used if the crane chooses the task in the next
+        ``step`` (see ``multicrane.tasks.TaskBook.feasible``)."""
+        if self.task_mode is None:
+            raise RuntimeError("task_feasible() needs decisions='task'")
+        return self.task_mode.feasible(int(crane), int(task))
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """The current legal-action mask of every crane."""

@@ -8,7 +8,10 @@
 A record holds the scenario (name, source and the SHA-256 of its file), the seed, the number
 of cranes, the options (``auto``, ``max_steps``), the joint actions (one list per step, in
 agent order), the events of each step (type name, crane, component) and the final metrics
-(return, steps, success, and the final component states). The environment draws each step's
+(return, steps, success, and the final component states). A task-mode episode
+(``decisions="task"``) is recorded by its physical joint actions and events, which replay in
+the motion mode, with the paper reward as its return; its task decisions are kept as
+``decisions``. The environment draws each step's
 crane order from its generator seeded at reset, so the same seed and actions give the same
 episode. :func:`resimulate` refuses a record whose scenario file changed
 (:class:`ScenarioMismatchError`) and one whose re-simulation differs from what was recorded
@@ -76,6 +79,9 @@ class EpisodeRecord:
     metrics: dict[str, Any] = field(default_factory=dict)
     policy: str = ""
     format: int = RECORD_FORMAT
+    # Task mode: the task decisions, one list per decision round (``actions`` then hold the
+    # physical joint actions, which re-simulate in the motion mode). Absent in motion mode.
+    decisions: list[list[int]] = field(default_factory=list)
 
     @property
     def steps(self) -> int:
@@ -86,6 +92,8 @@ class EpisodeRecord:
     def to_dict(self) -> dict[str, Any]:
         data = asdict(self)
         data["events"] = [[list(e) for e in step] for step in self.events]
+        if not self.decisions:
+            del data["decisions"]
         return data
 
     @classmethod
@@ -108,6 +116,7 @@ class EpisodeRecord:
                 events=[[(str(t), int(c), int(k)) for t, c, k in step] for step in data["events"]],
                 metrics=dict(data["metrics"]),
                 policy=str(data.get("policy", "")),
+                decisions=[[int(a) for a in step] for step in data.get("decisions", [])],
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise RecordError(f"{source}: malformed episode record ({exc!r})") from None
@@ -236,6 +245,15 @@ def record_episode(
             listener.on_step(env, joint, reward, events)
 
     m = run_episode(env, policy, int(seed), on_reset=on_reset, on_step=on_step)
+    task_mode = getattr(env, "task_mode", None)
+    if task_mode is not None:  # keep the physical steps: they re-simulate in motion mode
+        rec.decisions = rec.actions
+        rec.actions = [list(joint) for joint in task_mode.trace]
+        rec.events = [
+            [(e.type.name, int(e.crane), int(e.component)) for e in step]
+            for step in (sorted(s, key=lambda e: e.crane) for s in task_mode.trace_events)
+        ]
+        m = dict(m, **{"return": float(sum(task_mode.trace_rewards))})
     rec.metrics = {
         "return": m["return"],
         "steps": m["steps"],

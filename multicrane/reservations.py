@@ -150,13 +150,14 @@ class ShapeCache:
         self.walls = sim.site.static == WALL
         self._base_key: bytes | None = None
         self._base_free: np.ndarray | None = None
-        self._fit: dict[tuple[tuple[int, ...], int | None], bytes] = {}
+        self._fit: dict[tuple[int, ...], bytes] = {}
         self._h_cache: dict[tuple, list[int]] = {}
         self._h_key: bytes | None = None
+        self._zone_fit: dict[tuple, np.ndarray] = {}
 
-    def base_ok(self, sim: Simulator, rel: tuple[int, ...], crane: int | None = None) -> bytes:
-        """Positions where a component of this shape fits the base (no component in transit);
-        with ``crane`` and crane reach, only those wholly inside that crane's zone."""
+    def base_ok(self, sim: Simulator, rel: tuple[int, ...], zone: int = -1) -> bytes:
+        """Positions where a component of this shape fits the base (no component in transit)
+        and, for ``zone >= 0``, lies wholly in that crane's reach (``Site.reach``)."""
         status = sim.state.status
         key = status.tobytes()
         if key != self._base_key:
@@ -165,28 +166,44 @@ class ShapeCache:
                 if status[comp] == _IN_TRANSIT:
                     free[sim.state.cells[comp]] = True
             self._base_key, self._base_free, self._fit = key, free, {}
-        zone = None if crane is None or sim.site.reach is None else crane
         ok = self._fit.get((rel, zone))
         if ok is None:
-            free = self._base_free if zone is None else self._base_free & sim.site.reach[zone]
-            ok = fits_everywhere(free, rel).tobytes()
+            fit = fits_everywhere(self._base_free, rel)
+            if zone >= 0:
+                fit &= self.zone_fit(sim, rel, zone)
+            ok = fit.tobytes()
             self._fit[(rel, zone)] = ok
         return ok
 
-    def heuristic(self, sim: Simulator, rel: tuple[int, ...], goal: int) -> list[int]:
-        """Breadth-first moves to ``goal`` over walls and placed components (-1: none)."""
+    def zone_fit(self, sim: Simulator, rel: tuple[int, ...], zone: int) -> np.ndarray:
+        """Positions where a component of this shape lies wholly in crane ``zone``'s reach."""
+        key = (rel, zone)
+        fit = self._zone_fit.get(key)
+        if fit is None:
+            fit = fits_everywhere(sim.site.reach[zone], rel)
+            self._zone_fit[key] = fit
+        return fit
+
+    def heuristic(
+        self, sim: Simulator, rel: tuple[int, ...], goal: int, zone: int = -1
+    ) -> list[int]:
+        """Breadth-first moves to ``goal`` over walls and placed components, inside crane
+        ``zone``'s reach when ``zone >= 0`` (-1: none)."""
         status = sim.state.status
         key = (status >= _ARRIVED).tobytes()
         if key != self._h_key:
             self._h_key, self._h_cache = key, {}
-        h = self._h_cache.get((rel, goal))
+        h = self._h_cache.get((rel, goal, zone))
         if h is None:
             free = ~self.walls
             for comp in range(sim.site.n_components):
                 if status[comp] >= _ARRIVED:
                     free[sim.state.cells[comp]] = False
-            h = breadth_first(fits_everywhere(free, rel), [goal], sim.site.move_delta).tolist()
-            self._h_cache[(rel, goal)] = h
+            fit = fits_everywhere(free, rel)
+            if zone >= 0:
+                fit &= self.zone_fit(sim, rel, zone)
+            h = breadth_first(fit, [goal], sim.site.move_delta).tolist()
+            self._h_cache[(rel, goal, zone)] = h
         return h
 
 

@@ -10,6 +10,10 @@ successful moves:
 - any other step costs ``over_limit_cost`` while some crane holds a component with
   ``m > move_limit``, and ``step_cost / (k + 1)`` otherwise.
 
+``reward="makespan"`` (``makespan_reward``) is the other option of the environments: ``-1``
+per simulated step for the team, plus ``completion`` on the step that finishes the building,
+so an episode's return is ``completion - makespan``.
+
 The cost is paid once per joint step, not once per crane, so finishing sooner (in parallel)
 is what pays. ``split`` divides the team reward into per-crane terms that add up to it:
 progress goes to the crane that made it; the over-limit cost to the cranes over the limit;
@@ -47,6 +51,11 @@ def team_reward(
     if over_limit:
         return -spec.over_limit_cost
     return -spec.step_cost / (k + 1)
+
+
+def makespan_reward(spec: RewardSpec, complete: bool) -> float:
+    """The team reward of one simulated step under ``reward="makespan"``."""
+    return -1.0 + (spec.completion if complete else 0.0)
 
 
 def split(

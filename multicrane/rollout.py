@@ -11,8 +11,10 @@ is called as ``policy(observations) -> {agent: action}``, or the single-agent be
 episode (``policies.factory(name)`` gives one for a policy by name). This module never
 imports ``policies``: the caller passes the policy in.
 
-Definitions (one episode; a *step* is one ``env.step`` call, a joint step in the multi-agent
-mode; the episode ends when the building is complete or at the step limit):
+Definitions (one episode; a *step* is one simulated step: one ``env.step`` call, a joint
+step, in the multi-agent motion mode; with ``decisions="task"`` one call may advance several
+simulated steps, counted by the simulator's step count; the episode ends when the building
+is complete or at the step limit):
 
 - ``return``: the sum of the (team) reward. ``success``: the building was completed.
 - ``steps``: the steps played; ``makespan``: the steps to complete the building, ``None``
@@ -29,7 +31,9 @@ mode; the episode ends when the building is complete or at the step limit):
   in milliseconds divided by the number of calls (one call decides the joint action of all
   cranes, so this is the planning time per joint decision); ``plan_ms_per_crane`` divides
   the same total by ``steps * n_cranes`` (per crane decision); ``plan_ms_max`` is the
-  slowest single call.
+  slowest single call. In task mode the result also holds ``decision_rounds`` (the policy
+  calls), ``plan_ms_per_step`` is per decision round, and ``crane_steps`` comes from the
+  environment's ``infos`` (busy crane x simulated step pairs).
 
 The summary of a set of episodes (``summarise``): ``return_mean`` and its standard error
 ``return_sem`` (``multicrane.stats.sem``: None for one episode), ``success_rate``,
@@ -92,7 +96,7 @@ class _Tally:
 
     def __init__(self, n_cranes: int):
         self.n = n_cranes
-        self.steps = self.busy = self.blocked = self.failed = 0
+        self.steps = self.calls = self.busy = self.blocked = self.failed = 0
         self.total = 0.0
         self.plan_s = self.plan_max = 0.0
         self.events = dict.fromkeys((e.name for e in EventType), 0)
@@ -150,14 +154,21 @@ def _multi_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]
     tally = _Tally(n)
     if on_reset is not None:
         on_reset(env)
+    start = sim.state.step_count
     while env.agents:
         held_before = [c != NOBODY for c in sim.state.held]
         actions = tally.timed(policy, observations)
         observations, rewards, terminations, truncations, infos = env.step(actions)
         reward = float(rewards[first])
-        tally.steps += 1
+        tally.calls += 1
+        tally.steps = sim.state.step_count - start  # simulated steps (task mode: several)
         tally.total += reward
-        tally.busy += sum(1 for i in range(n) if held_before[i] or sim.state.held[i] != NOBODY)
+        if "crane_steps" in infos[first]:
+            tally.busy += infos[first]["crane_steps"]
+        else:
+            tally.busy += sum(
+                1 for i in range(n) if held_before[i] or sim.state.held[i] != NOBODY
+            )
         for a in agents:
             tally.count(infos[a]["events"])
         if record or on_step is not None:
@@ -168,7 +179,11 @@ def _multi_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]
                 on_step(env, joint, reward, infos)
         if terminations[first] or truncations[first]:
             break
-    return tally.result(base.scenario.name, seed, bool(sim.done), record)
+    out = tally.result(base.scenario.name, seed, bool(sim.done), record)
+    if getattr(base, "decisions", "motion") == "task":
+        out["decision_rounds"] = tally.calls
+        out["plan_ms_per_step"] = 1000.0 * tally.plan_s / tally.calls if tally.calls else 0.0
+    return out
 
 
 def _single_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]:

@@ -5,7 +5,8 @@
     make_policy = policies.factory("runs/E2S2-ppo-s0")   # make_policy(env, seed), for evaluate()
 
 Names (``names(paper)`` lists the built-in ones of a mode): ``random`` and ``greedy`` (both
-modes), ``prioritized`` (multi-agent mode only), ``optimal`` (the exact planner, single-agent
+modes), ``prioritized`` (multi-agent mode only; with ``decisions="task"`` these three are the
+task-level planners of ``policies.task_planners``), ``optimal`` (the exact planner, single-agent
 mode only), or the path of a training run directory or of its ``model.zip`` (needs the
 ``train`` extra; the model acts greedily). The mode is the environment's: a PettingZoo
 ``ParallelEnv`` is the multi-agent mode, anything else the single-agent benchmark mode.
@@ -66,8 +67,14 @@ class ExactPlan:
         return self.actions.pop(0) if self.actions else 0
 
 
-def _builtin(name: str, paper: bool) -> Callable[..., Any]:
-    """``build(env, seed, **options)`` for a built-in name of a mode."""
+def _task_level(env) -> bool:
+    """The environment takes task-level decisions (``decisions="task"``)."""
+    return getattr(getattr(env, "unwrapped", env), "decisions", "motion") == "task"
+
+
+def _builtin(name: str, paper: bool, env=None) -> Callable[..., Any]:
+    """``build(env, seed, **options)`` for a built-in name of a mode (the task-level
+    planners of ``policies.task_planners`` when ``env`` takes task-level decisions)."""
     if paper:
         if name == "optimal":
             return lambda env, seed, **o: ExactPlan(env, **o)
@@ -76,6 +83,12 @@ def _builtin(name: str, paper: bool) -> Callable[..., Any]:
 
             return lambda env, seed, **o: PaperGreedyPolicy(env, **o)
         return lambda env, seed, **o: RandomMoves(seed=policy_seed(seed), **o)
+    if name in MULTI_NAMES and _task_level(env):
+        from policies import task_planners
+
+        cls = {"prioritized": task_planners.TaskPrioritized, "greedy": task_planners.TaskGreedy,
+               "random": task_planners.TaskRandom}[name]  # fmt: skip
+        return lambda env, seed, **o: cls(env, seed=policy_seed(seed), **o)
     if name == "prioritized":
         from policies.prioritized import PrioritizedPlanner
 
@@ -147,7 +160,7 @@ class Factory:
         paper = not is_multi_agent(env)
         self.check(paper)
         if self.model is None:
-            return _builtin(self.name, paper)(env, seed, **self.options)
+            return _builtin(self.name, paper, env)(env, seed, **self.options)
         return self._model_policy(env, paper)
 
     def _model_policy(self, env, paper: bool):

@@ -15,10 +15,18 @@ DESCRIPTION = """Environment throughput: joint steps per second under random leg
     multicrane bench --scenario hall-4c --cranes 4 --steps 50000
     multicrane bench --all          # every shipped scenario, 1 and 4 cranes
     multicrane bench --paper E1S1   # the single-agent paper mode (Gymnasium)
+    multicrane bench --decisions task --scenario hall-4c --cranes 4   # task-level rounds
 
 Each joint step includes the observations and masks the environment returns and the choice of
 a random legal action per crane (from the mask, as a masked policy would). Resets are
 included when episodes end. Run it on an otherwise idle core for stable figures.
+
+With ``--decisions task`` it times task-level decision rounds instead: one round is the
+policy's call (planning included: the prioritized rule's space-time searches) plus the
+``env.step`` that starts the tasks and advances the simulator to the next decision. It
+reports rounds per second and the mean and 95th percentile milliseconds per round, for the
+task-level prioritized planner and for random legal tasks, over whole episodes (seeds 0, 1,
+...) until ``--steps`` rounds have been timed (resets excluded).
 """
 
 
@@ -31,6 +39,8 @@ def register(sub) -> None:
     p.add_argument("--auto", action="store_true", help="automatic claiming and assembly")
     p.add_argument("--all", action="store_true", help="every shipped scenario with 1 and 4 cranes")
     p.add_argument("--paper", metavar="CONFIG", nargs="*", help="paper mode configurations")
+    p.add_argument("--decisions", choices=("motion", "task"), default="motion",
+                   help="task: time task-level decision rounds (planning included)")
     p.set_defaults(func=run)
 
 
@@ -73,8 +83,51 @@ def bench_paper(config: str, steps: int, seed: int = 0) -> float:
     return steps / (time.perf_counter() - start)
 
 
+def bench_task(scenario: str, cranes: int | None, rounds: int, policy: str) -> list[float]:
+    """Seconds per task-level decision round (policy call + env.step), whole episodes from
+    seed 0 on, until ``rounds`` rounds are timed."""
+    import multicrane
+    import policies
+
+    env = multicrane.parallel_env(scenario, n_cranes=cranes, decisions="task")
+    times: list[float] = []
+    seed = 0
+    while len(times) < rounds:
+        obs, _ = env.reset(seed=seed)
+        act = policies.make(policy, env, seed=seed)
+        while env.agents and len(times) < rounds:
+            start = time.perf_counter()
+            obs, *_ = env.step(act(obs))
+            times.append(time.perf_counter() - start)
+        seed += 1
+    return times
+
+
+def run_task(args: argparse.Namespace) -> int:
+    import multicrane
+
+    runs = (
+        [(name, n) for name in multicrane.scenario_names() for n in (1, 4)]
+        if args.all
+        else [(args.scenario, args.cranes)]
+    )
+    rounds = min(args.steps, 2000) if args.steps == 20000 else args.steps
+    print(f"{'scenario':<12} {'cranes':>6} {'policy':>12} {'rounds/s':>10} {'mean ms':>8} "
+          f"{'p95 ms':>8}")  # fmt: skip
+    for name, n in runs:
+        shown = n if n is not None else multicrane.load_scenario(name).cranes
+        for policy in ("prioritized", "random"):
+            t = np.array(bench_task(name, n, rounds, policy))
+            print(f"{name:<12} {shown:>6} {policy:>12} {1 / t.mean():>10,.0f} "
+                  f"{1000 * t.mean():>8.2f} {1000 * np.percentile(t, 95):>8.2f}")  # fmt: skip
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     import multicrane
+
+    if args.decisions == "task":
+        return run_task(args)
 
     if args.paper is not None:
         print(f"{'config':<12} {'mode':>7} {'steps/s':>14}")

@@ -50,12 +50,16 @@ def formatter() -> dict:
 
 
 def add_environment_args(p: argparse.ArgumentParser, required: bool = True) -> None:
-    """``--paper CONFIG`` or ``--scenario NAME`` (one of them), ``--cranes``, ``--auto``."""
+    """``--paper CONFIG`` or ``--scenario NAME`` (one of them), ``--cranes``, ``--auto``,
+    ``--decisions``."""
     where = p.add_mutually_exclusive_group(required=required)
     where.add_argument("--paper", metavar="CONFIG", help="single-agent benchmark: E1S1 .. E4S4")
     where.add_argument("--scenario", help="multi-agent: shipped scenario name or .toml path")
     p.add_argument("--cranes", type=int, default=None, help="cranes (default: scenario's)")
     p.add_argument("--auto", action="store_true", help="multi-agent automatic mode")
+    p.add_argument("--decisions", choices=("motion", "task"), default="motion",
+                   help="multi-agent decision level: motion (every move) or task (which "
+                   "component to which target)")  # fmt: skip
 
 
 def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **options):
@@ -64,6 +68,8 @@ def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **option
     import multicrane
 
     if paper:
+        if options.get("decisions", "motion") != "motion":
+            raise ValueError("--decisions task is a multi-agent option (use --scenario)")
         return multicrane.PaperAssemblyEnv(paper, mask_blocked_moves=True)
     return multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, **options)
 

@@ -43,7 +43,7 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
     from multicrane.training.seeding import evaluation_seeds
 
     paper = args.paper is not None
-    env = make_env(args.paper, args.scenario, args.cranes, args.auto)
+    env = make_env(args.paper, args.scenario, args.cranes, args.auto, decisions=args.decisions)
     if args.seed is None:
         seeds = evaluation_seeds(args.episodes)  # the seeds training evaluates on
     else:

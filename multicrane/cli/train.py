@@ -88,6 +88,7 @@ def build_config(args: argparse.Namespace):
         checkpoint_every=args.checkpoint_every,
         mask_blocked_moves=mask,
         auto=args.auto,
+        decisions=args.decisions,
         shaping=args.shaping,
         torch_threads=args.threads,
     )

@@ -35,7 +35,8 @@ class TrainConfig:
     evaluation (default: ``eval_episodes``). ``checkpoint_every``: steps between
     checkpoints (0: only on interruption). ``mask_blocked_moves``: paper mode's mask
     (default: on for ``maskable_ppo`` only). ``auto``/``max_steps``: multi-agent environment
-    options. ``shaping``: weight of the potential-based shaping term of the multi-agent mode
+    options; ``decisions``: ``"motion"`` or ``"task"`` (the multi-agent decision level).
+    ``shaping``: weight of the potential-based shaping term of the multi-agent mode
     (``multicrane.training.shaping``; default ``DEFAULT_SHAPING``; 0 turns it off).
     ``torch_threads``: 1 unless you have cores to spare.
     """
@@ -55,6 +56,7 @@ class TrainConfig:
     mask_blocked_moves: bool | None = None
     auto: bool = False
     max_steps: int | None = None
+    decisions: str = "motion"
     shaping: float | None = None
     torch_threads: int = 1
 
@@ -68,6 +70,10 @@ class TrainConfig:
             self.scenario = str(self.scenario).upper()
             if self.n_cranes not in (None, 1):
                 raise ConfigError(f"n_cranes={self.n_cranes!r}: paper mode has one crane")
+        if self.decisions not in ("motion", "task"):
+            raise ConfigError(f"decisions={self.decisions!r}: must be 'motion' or 'task'")
+        if self.paper and self.decisions != "motion":
+            raise ConfigError("decisions='task' is a multi-agent option, not paper mode")
         for name in ("total_steps", "eval_episodes", "torch_threads"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:

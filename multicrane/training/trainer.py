@@ -66,9 +66,8 @@ def paper_env(cfg: TrainConfig, algo: Algorithm):
 def multi_env(cfg: TrainConfig):
     from multicrane.crane_env import MultiCraneEnv
 
-    return MultiCraneEnv(
-        cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto, max_steps=cfg.max_steps
-    )
+    return MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto,
+                         max_steps=cfg.max_steps, decisions=cfg.decisions)  # fmt: skip
 
 
 def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):

@@ -9,8 +9,10 @@ reaches MaskablePPO; and ``info["episode"]`` feeds SB3's episode statistics. Wit
 ``shaping > 0`` the learner's reward gets the potential-based term of
 ``multicrane.training.shaping`` (returns and statistics stay the environment's).
 
-``SeededDummyVecEnv`` is SB3's ``DummyVecEnv`` with the same seed derivation, for the
-single-agent benchmark mode.
+With a task-level environment (``decisions="task"``) a row is a crane's task choice; a busy
+crane's row has the mask ``[1, 0, ...]`` (only "continue"), and episode lengths count
+simulated steps. ``SeededDummyVecEnv`` is SB3's ``DummyVecEnv`` with the same seed
+derivation, for the single-agent benchmark mode.
 """
 
 from __future__ import annotations
@@ -136,7 +138,7 @@ class CraneVecEnv(VecEnv):
                 rewards[base : base + n] = shaped
             else:
                 rewards[base : base + n] = r
-            self._lengths[copy] += 1
+            self._lengths[copy] = env.sim.state.step_count  # simulated steps (task mode)
             self._store(copy, observations)
             if terminations[first] or truncations[first]:
                 truncated = bool(truncations[first] and not terminations[first])

@@ -1,0 +1,121 @@
+"""Task-level planners: the prioritized rule, greedy and random, choosing tasks for idle cranes.
+
+They drive ``MultiCraneEnv(decisions="task")`` (``multicrane.tasks``: action ``0`` wait or
+continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
+
+- ``TaskPrioritized``: the prioritized planner's rule (``policies.prioritized``): ready pairs
+  ranked by list order then distance (or distance alone); for each pair in that order the
+  first idle crane allowed to take it asks ``env.task_feasible(crane, p)`` (the carrier's
+  space-time search, kept for the step if the crane then chooses it), at most
+  ``max_searches`` searches per decision. It gives the motion-mode planner's makespans.
+- ``TaskGreedy``: each idle crane, in crane order, takes the allowed task with the shortest
+  static path (ties: the lower task number), without a search (a blocked task is held and
+  retried by the environment).
+- ``TaskRandom``: each idle crane takes a uniformly random allowed task (wait when none).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from multicrane.simulator import NOBODY
+from policies.prioritized import check_rank, ranked_pairs
+
+
+def _book(env):
+    base = env.unwrapped if hasattr(env, "unwrapped") else env
+    if getattr(base, "task_mode", None) is None:
+        raise ValueError("task-level planners drive MultiCraneEnv(decisions='task')")
+    return base, base.task_mode.book
+
+
+class TaskPrioritized:
+    """The prioritized rule over tasks (see the module doc); ``stats`` are the carrier's."""
+
+    def __init__(self, env, seed=None, max_searches: int = 8, rank: str = "list"):
+        self.env, _ = _book(env)
+        self.seed = seed
+        self.max_searches = max_searches
+        self.rank = check_rank(rank)
+        self._list_rank = {c: i for i, c in enumerate(self.env.scenario.order)}
+
+    @property
+    def stats(self) -> dict:
+        return self.env.task_mode.book.carrier.stats
+
+    def __call__(self, observations: dict) -> dict:
+        env = self.env
+        book = env.task_mode.book
+        sim, carrier = env.sim, book.carrier
+        agents = env.possible_agents
+        actions = dict.fromkeys(agents, 0)
+        T = sim.state.step_count
+        idle = book.idle_cranes()
+        if not idle or not carrier.may_start(T):
+            return actions
+        candidates = [c for c in sim.claimable_components() if c not in carrier.plans]
+        if not candidates:
+            return actions
+        allowed = book.allowed()
+        pairs = ranked_pairs(sim, candidates, carrier.taken_targets(), self.rank, self._list_rank)
+        used_c: set[int] = set()
+        used_t: set[int] = set()
+        for _, comp, t in pairs:
+            if not idle or carrier.round_searches >= self.max_searches:
+                break
+            if comp in used_c or t in used_t:
+                continue
+            p = book.tasks.index[(comp, t)]
+            crane = next((k for k in idle if allowed[k, p]), NOBODY)
+            if crane == NOBODY:
+                continue
+            if env.task_feasible(crane, p):
+                actions[agents[crane]] = 1 + p
+                idle.remove(crane)
+                used_c.add(comp)
+                used_t.add(t)
+        return actions
+
+
+class TaskGreedy:
+    """Each idle crane takes its allowed task with the shortest static path."""
+
+    def __init__(self, env, seed=None):
+        self.env, _ = _book(env)
+        self.seed = seed
+
+    def __call__(self, observations: dict) -> dict:
+        book = self.env.task_mode.book
+        agents = self.env.possible_agents
+        actions = dict.fromkeys(agents, 0)
+        allowed = book.allowed()
+        used_c: set[int] = set()
+        used_t: set[int] = set()
+        for k in book.idle_cranes():
+            lens = np.where(allowed[k], book.static_len[k], np.iinfo(np.int64).max)
+            for p in np.argsort(lens, kind="stable"):
+                if not allowed[k, p]:
+                    break
+                c, t = book.tasks.pairs[p]
+                if c in used_c or t in used_t:
+                    continue
+                actions[agents[k]] = 1 + int(p)
+                used_c.add(c)
+                used_t.add(t)
+                break
+        return actions
+
+
+class TaskRandom:
+    """Each idle crane takes a uniformly random allowed task (from its own seed)."""
+
+    def __init__(self, env, seed=None):
+        self.env, _ = _book(env)
+        self.rng = np.random.default_rng(seed)
+
+    def __call__(self, observations: dict) -> dict:
+        out = {}
+        for a in self.env.possible_agents:
+            legal = np.flatnonzero(observations[a]["action_mask"][1:])
+            out[a] = 1 + int(legal[self.rng.integers(len(legal))]) if len(legal) else 0
+        return out
