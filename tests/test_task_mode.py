@@ -7,7 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import SCENARIOS
+from conftest import SCENARIOS, reach_skip
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
 from test_invariants import Checker
 
@@ -35,6 +35,7 @@ PRIORITIZED_SEED0 = {
     "e4s1": (191, 102, 70, 57), "e4s2": (175, 97, 64, 53), "e4s3": (175, 90, 65, 53),
     "e4s4": (175, 97, 64, 53), "frame2-3c": (518, 268, 182, 146),
     "hall-4c": (505, 258, 179, 140),
+    "towers-3c": (None, None, 141, None),  # three tower cranes: runs with exactly 3
 }  # fmt: skip
 
 
@@ -57,7 +58,7 @@ def random_tasks(obs, rng):
 @pytest.mark.filterwarnings(*API_NOTES)
 @pytest.mark.parametrize("name", SCENARIOS)
 def test_pettingzoo_api_and_seed_tests(name):
-    n = 3 if name in ("frame2-3c", "hall-4c", "e4s1") else 2
+    n = 3 if name in ("frame2-3c", "hall-4c", "e4s1", "towers-3c") else 2
     parallel_api_test(task_env(name, n), num_cycles=40)
     api_test(multicrane.env(name, n_cranes=n, decisions="task"), num_cycles=20,
              verbose_progress=False)  # fmt: skip
@@ -111,10 +112,10 @@ def test_same_seed_same_episode():
 # -- invariants: every physical step of random task play, checked in motion mode ---------------
 
 
-@pytest.mark.parametrize("name", ["e2s2", "e3s3", "e4s1", "frame2-3c", "hall-4c"])
+@pytest.mark.parametrize("name", ["e2s2", "e3s3", "e4s1", "frame2-3c", "hall-4c", "towers-3c"])
 def test_random_task_play_keeps_the_invariants(name):
     rng = np.random.default_rng(7)
-    for n in (2, 4):
+    for n in (3,) if name == "towers-3c" else (2, 4):
         env = task_env(name, n)
         for seed in (0, 1):
             obs, _ = env.reset(seed=seed)
@@ -299,6 +300,9 @@ def test_record_and_resimulate_task_mode(policy, tmp_path):
 @pytest.mark.parametrize("name", SCENARIOS)
 def test_task_prioritized_gives_the_motion_makespans(name):
     for n in (1, 2, 3, 4):
+        if PRIORITIZED_SEED0[name][n - 1] is None:
+            assert reach_skip(name, n), (name, n)  # too few (or too many) tower cranes
+            continue
         spans = []
         for decisions in ("motion", "task"):
             env = multicrane.parallel_env(name, n_cranes=n, decisions=decisions)
