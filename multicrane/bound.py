@@ -30,10 +30,12 @@ the optimum of the relaxation is at most the best achievable makespan:
   earlier than the step in which the last support is assembled (``s + 1 + m >= end(support)``;
   cranes act one after another in a step, so the same step is possible), and that a beam is
   *claimed* no earlier than the step in which some target it may fill becomes supported (the
-  simulator lets a beam be claimed only then). Pre-built components are assembled at step 0.
-- *Targets*: each component fills exactly one target it may fill, each target not taken by a
-  pre-built component is filled at most once (with as many components as free targets, this
-  is exactly once).
+  simulator lets a beam be claimed only then, and also asks that target to be free, which the
+  model does not). A column may be claimed before its target is supported, as in the
+  simulator. Pre-built components are assembled at step 0.
+- *Targets*: each component fills exactly one target it may fill and each target not taken
+  by a pre-built component is filled exactly once (there are as many of them as components to
+  place), as in every finished episode.
 - *Reach* (``Scenario.crane_specs``): a crane's options for a component exist only when its
   zone holds the pick-up pose, the target and a path between them, every pose of the path in
   the zone (no hand-over between cranes), and the path length is measured inside the zone.
@@ -43,10 +45,13 @@ the optimum of the relaxation is at most the best achievable makespan:
   models have the same optimum.
 
 Cuts added (each implied by the model, stated to help the solver prove the bound): the
-workload floor ``makespan >= ceil(sum of each task's shortest option / n_cranes)`` (as the
-makespan's lower limit), ``n_cranes * makespan >=`` the chosen durations' sum, per crane with
-reach ``makespan >=`` its chosen durations' sum, and ``makespan >=`` each task's shortest
-option.
+workload floor with distinct targets, ``makespan >= ceil(W / n_cranes)`` with ``W`` the least
+total duration of an assignment of the components to distinct targets (a minimum-cost
+matching, ``Tasks.assignment``; at least the sum of each task's shortest option), and
+``makespan >=`` each task's shortest option, both as the makespan's lower limit;
+``n_cranes * makespan >=`` the chosen durations' sum; per crane with reach,
+``makespan >=`` its chosen durations' sum. A list schedule of that assignment
+(``multicrane.bound_schedule``) is handed to the solver as a hint.
 
 ``BoundResult.value`` is the optimum of the relaxation when the solver proves it
 (``status == "optimal"``); otherwise the solver's best proven bound (``"feasible"``: it found
