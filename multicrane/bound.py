@@ -120,15 +120,14 @@ class BoundResult:
 # -- the model -----------------------------------------------------------------------------------
 
 
-def build_model(tasks: Tasks, hint: dict[int, tuple[int, int]] | None = None):
+def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None):
     """The CP-SAT model of the relaxation (see the module doc); returns (model, makespan).
 
-    ``hint``: component -> (start, crane) of a schedule with ``tasks.assignment()``
+    ``hint``: component -> (start, option) of a schedule of the relaxation
     (``multicrane.bound_schedule.list_schedule``), given to the solver as a starting point.
     """
     from ortools.sat.python import cp_model
 
-    assignment = tasks.assignment()
     model = cp_model.CpModel()
     by_comp: dict[int, list[Option]] = {c: [] for c in tasks.comps}
     for o in tasks.options:
@@ -196,14 +195,13 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, int]] | None = None):
     model.Minimize(makespan)
 
     if hint is not None:
-        for c, (s, crane) in hint.items():
-            chosen = assignment[c]
+        for c, (s, chosen) in hint.items():
             model.AddHint(start[c], s)
             model.AddHint(end[c], s + chosen.duration)
             model.AddHint(fill[chosen.target], s + chosen.duration)
             for o in by_comp[c]:
-                model.AddHint(presence[o], o == chosen and (o.crane is None or o.crane == crane))
-        model.AddHint(makespan, max(s + assignment[c].duration for c, (s, _) in hint.items()))
+                model.AddHint(presence[o], o == chosen)
+        model.AddHint(makespan, max(s + o.duration for s, o in hint.values()))
     return model, makespan
 
 
@@ -256,7 +254,7 @@ def lower_bound(
         return result(0, "optimal", 0, ["every component is pre-built"])
     floor = floor_of(tasks)
     plan = list_schedule(tasks, tasks.assignment())
-    first = schedule_makespan(tasks, tasks.assignment(), plan)
+    first = schedule_makespan(plan)
     notes = [
         f"{len(tasks.options)} options; workload floor {tasks.workload_floor}, "
         f"{tasks.assignment_floor()} with distinct targets; list schedule {first}",
