@@ -329,7 +329,9 @@ def test_bound_command_errors_are_one_line(capsys, tmp_path):
     assert main(["bound", str(bad)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.toml" in err[0]
-    assert main(["bound", "e1s1", "--cranes", "0"]) == 1
-    assert "n_cranes" in capsys.readouterr().err
+    assert main(["bound", "e1s1", "--cranes", "0", "1"]) == 1
+    out = capsys.readouterr()
+    assert "n_cranes" in out.err and len(out.err.strip().splitlines()) == 1
+    assert "e1s1, 1 crane(s)" in out.out  # the other setting still runs
     assert main(["bound", "e1s1", "--time-limit", "0"]) == 1
     assert main(["bound", "e1s1", "--planner", "nonsense"]) == 1

@@ -20,7 +20,9 @@ as precedence, interchangeable targets as options.
 Status "optimal": the solver proved the relaxation's optimum (the bound is that optimum);
 "feasible"/"unknown": it stopped at the time limit and the bound is its best proven one.
 --planner also plays that planner on the same seed and prints its makespan and the gap
-(makespan - bound) / bound; --markdown prints the table as markdown.
+(makespan - bound) / bound; --markdown prints the table as markdown. A setting that cannot
+be bounded (a bad crane count, a component no crane can carry) is reported in one line on
+stderr and the others still run; the exit status is then 1.
 """
 
 
@@ -83,19 +85,22 @@ def run(args: argparse.Namespace) -> int:
         scenarios = [multicrane.load_scenario(name) for name in args.scenario]
     except (multicrane.ScenarioError, OSError) as exc:
         return error(exc, 1)
-    rows = []
+    rows, status = [], 0
     for scenario in scenarios:
         for n in args.cranes:
             try:
                 row = bound_row(scenario, n, args.seed, make_policy, args.planner,
                                 args.time_limit, args.workers)  # fmt: skip
             except (multicrane.ScenarioError, ValueError, OSError) as exc:
-                return error(exc, 1)
+                # e.g. a tower-crane site some of whose components these cranes cannot carry:
+                # say so in one line and go on with the other settings.
+                status = error(exc, 1)
+                continue
             rows.append(row)
             if args.json:
                 print(json.dumps(row.as_dict()), flush=True)
             elif not args.markdown:
                 print(describe(row), flush=True)
-    if args.markdown:
+    if args.markdown and rows:
         print(markdown_table(rows))
-    return 0
+    return status
