@@ -26,6 +26,7 @@ COMMANDS = (
     "train",
     "replay",
     "check",
+    "bound",
     "bench",
     "benchmark",
     "paper_table",
