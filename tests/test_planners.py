@@ -225,3 +225,26 @@ def test_compare_tool_writes_a_markdown_page(tmp_path):
     assert "| e1s1 | 1 |" in page and "| hall-4c | 4 |" in page
     assert "## Planning time per decision" in page and "## Observations" in page
     assert "ms per joint decision" in page and "opt+2/comp" in page
+    # the lower bound and its gaps, and the task-mode section
+    assert "## Lower bound and gaps" in page and "## Task mode (large scenarios)" in page
+    assert "vs. the lower bound" in page
+
+
+def test_report_gaps_are_never_negative_and_task_mode_matches():
+    """The report's bound and gaps: a bound over a makespan would be a bug in one of them."""
+    import policies
+    from multicrane.reports.planners import Setup, run_all
+
+    setup = Setup(["e3s2", "hall-4c"], [1, 3], ["greedy", "prioritized"], seeds=2,
+                  random_seeds=0, optimal=False, bound_time_limit=20.0)  # fmt: skip
+    makers = {name: policies.factory(name, paper=False) for name in setup.policies}
+    res = run_all(setup, makers)
+    assert set(res.bounds) == {(s, n) for s in setup.scenarios for n in setup.cranes}
+    for key, bound in res.bounds.items():
+        assert len(bound.values) == 2 and all(v > 0 for v in bound.values)
+        for policy in setup.policies:
+            gaps = res.gaps(*key, policy)
+            assert len(gaps) == 2 and min(gaps) >= 0.0, (key, policy, gaps)
+    assert set(res.task) == {("hall-4c", 1), ("hall-4c", 3)}
+    for cost in res.task.values():
+        assert cost.same_as_motion and cost.rounds >= 1 and cost.ms_per_round > 0

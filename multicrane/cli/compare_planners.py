@@ -38,6 +38,11 @@ def register(sub) -> None:
     p.add_argument("--random-seeds", type=int, default=2, help="episodes per setting (random)")
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--no-optimal", dest="optimal", action="store_false")
+    p.add_argument("--no-bound", dest="bound", action="store_false",
+                   help="skip the CP-SAT lower bound of each episode")  # fmt: skip
+    p.add_argument("--bound-time-limit", type=float, default=60.0, help="seconds per bound")
+    p.add_argument("--no-task", dest="task", action="store_false",
+                   help="skip task-mode prioritized on the large scenarios")  # fmt: skip
     p.add_argument("--markdown", action="store_true", help="print a whole markdown page")
     p.add_argument("--output", type=Path, help="write the report here instead of stdout")
     p.set_defaults(func=run)
@@ -61,7 +66,8 @@ def run(args: argparse.Namespace) -> int:
     if args.seeds < 1:
         return error("--seeds must be at least 1")
     setup = Setup(scenarios, args.cranes, args.policies, args.seeds, args.random_seeds,
-                  args.seed, args.optimal)  # fmt: skip
+                  args.seed, args.optimal, args.bound, args.bound_time_limit,
+                  args.task)  # fmt: skip
     makers = {name: policies.factory(name, paper=False) for name in args.policies}
     with progress.bar(setup.episodes(), "compare-planners") as advance:
         quiet = progress.enabled()

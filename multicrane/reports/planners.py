@@ -23,7 +23,7 @@ from multicrane.scenario_loader import load_scenario
 
 PLANNERS = ("greedy", "prioritized")
 PAPER = re.compile(r"^e[1-4]s[1-4]$")
-LARGE = ("frame2-3c", "hall-4c")
+LARGE = ("frame2-3c", "hall-4c", "towers-3c")
 STAT_KEYS = ("searches", "failed", "expansions", "claims", "replans", "repairs", "fallbacks")
 
 MakePolicy = Callable[..., Callable]
@@ -41,6 +41,9 @@ class Setup:
     random_seeds: int = 2  # episodes per setting, random
     seed: int = 0  # first episode seed
     optimal: bool = True
+    bound: bool = True  # the CP-SAT makespan lower bound of each planner seed's episode
+    bound_time_limit: float = 60.0  # seconds per bound
+    task_cost: bool = True  # task-mode prioritized on the large scenarios: rounds and cost
 
     def seeds_of(self, policy: str) -> range:
         n = self.random_seeds if policy == "random" else self.seeds
@@ -71,6 +74,25 @@ class Optimal:
 
 
 @dataclass
+class Bound:
+    """The makespan lower bound of each planner seed's episode (``multicrane.bound``)."""
+
+    values: list[int]  # per seed, in the order of ``Setup.seeds_of("prioritized")``
+    proven: int  # how many are the relaxation's proven optimum
+    seconds: float
+
+
+@dataclass
+class TaskCost:
+    """The prioritized rule in task mode (``decisions="task"``) on one setting."""
+
+    makespans: list[int | None]  # per seed (None: not completed)
+    same_as_motion: bool  # every makespan equals the motion-mode planner's on the same seed
+    rounds: float  # decision rounds (``env.step`` calls) per episode
+    ms_per_round: float  # wall time per decision round, planning and simulation included
+
+
+@dataclass
 class Results:
     """Everything a report needs: the setup, the cells, the optima and the wall time."""
 
@@ -80,6 +102,20 @@ class Results:
     wall: float
     # (scenario, cranes) settings not run, with the reason (crane reach: too few cranes)
     skipped: dict[tuple[str, int], str] = field(default_factory=dict)
+    bounds: dict[tuple[str, int], Bound] = field(default_factory=dict)
+    task: dict[tuple[str, int], TaskCost] = field(default_factory=dict)
+
+    def gaps(self, name: str, n: int, policy: str) -> list[float]:
+        """Per completed episode: (makespan - bound) / bound, the episode's own bound."""
+        cell, bound = self.cells.get((name, n, policy)), self.bounds.get((name, n))
+        if cell is None or bound is None:
+            return []
+        by_seed = dict(zip(self.setup.seeds_of("prioritized"), bound.values, strict=True))
+        return [
+            (r["makespan"] - by_seed[r["seed"]]) / by_seed[r["seed"]]
+            for r in cell.results
+            if r["success"] and r["seed"] in by_seed
+        ]
 
 
 def run_cell(
@@ -125,6 +161,37 @@ def run_optimal(config: str, make_optimal: MakePolicy, seeds: range) -> Optimal:
     )
 
 
+def run_bound(name: str, n: int, seeds: range, time_limit: float) -> Bound:
+    """The lower bound of each seed's episode of (scenario, cranes)."""
+    from multicrane.bound import lower_bound
+
+    start = time.perf_counter()
+    results = [lower_bound(name, n, seed=s, time_limit=time_limit) for s in seeds]
+    return Bound(
+        [b.value for b in results], sum(b.optimal for b in results), time.perf_counter() - start
+    )
+
+
+def run_task_cost(name: str, n: int, make_policy: MakePolicy, motion: Cell) -> TaskCost:
+    """The prioritized rule in task mode on the seeds of the motion-mode cell ``motion``."""
+    from multicrane import parallel_env
+
+    env = parallel_env(name, n_cranes=n, decisions="task")
+    spans, rounds, seconds = [], 0, 0.0
+    for r in motion.results:
+        policy = make_policy(env, r["seed"])
+        start = time.perf_counter()
+        observations, _ = env.reset(seed=r["seed"])
+        while env.agents:
+            observations, *_ = env.step(policy(observations))
+            rounds += 1
+        seconds += time.perf_counter() - start
+        spans.append(env.sim.state.step_count if env.sim.done else None)
+    same = spans == [r["makespan"] for r in motion.results]
+    episodes = len(motion.results)
+    return TaskCost(spans, same, rounds / episodes, 1000.0 * seconds / max(rounds, 1))
+
+
 def run_all(
     setup: Setup,
     policies: Mapping[str, MakePolicy],
@@ -139,6 +206,8 @@ def run_all(
     cells: dict[tuple[str, int, str], Cell] = {}
     optimal: dict[str, Optimal] = {}
     skipped: dict[tuple[str, int], str] = {}
+    bounds: dict[tuple[str, int], Bound] = {}
+    task: dict[tuple[str, int], TaskCost] = {}
     start = time.perf_counter()
     for name in setup.scenarios:
         for n in setup.cranes:
@@ -162,6 +231,34 @@ def run_all(
                         f"{name:<10} {n} {policy:<12} success {s['success_rate']:>4.0%} "
                         f"makespan {made} ({cell.seconds:.1f} s)"
                     )
+            extra = run_extras(setup, policies, name, n, cells, log)
+            if extra[0] is not None:
+                bounds[name, n] = extra[0]
+            if extra[1] is not None:
+                task[name, n] = extra[1]
         if setup.optimal and make_optimal and PAPER.match(name) and 1 in setup.cranes:
             optimal[name] = run_optimal(name, make_optimal, setup.seeds_of("prioritized"))
-    return Results(setup, cells, optimal, time.perf_counter() - start, skipped)
+    wall = time.perf_counter() - start
+    return Results(setup, cells, optimal, wall, skipped, bounds, task)
+
+
+def run_extras(
+    setup: Setup,
+    policies: Mapping[str, MakePolicy],
+    name: str,
+    n: int,
+    cells: dict[tuple[str, int, str], Cell],
+    log: Callable[[str], None] | None,
+) -> tuple[Bound | None, TaskCost | None]:
+    """The lower bound of (scenario, cranes), and the task-mode cost on a large scenario."""
+    bound = task = None
+    if setup.bound and setup.seeds:
+        bound = run_bound(name, n, setup.seeds_of("prioritized"), setup.bound_time_limit)
+        if log is not None:
+            log(f"{name:<10} {n} bound {bound.values} ({bound.seconds:.1f} s)")
+    motion = cells.get((name, n, "prioritized"))
+    if setup.task_cost and name in LARGE and motion is not None:
+        task = run_task_cost(name, n, policies["prioritized"], motion)
+        if log is not None:
+            log(f"{name:<10} {n} task mode {task.ms_per_round:.2f} ms per decision round")
+    return bound, task

@@ -30,6 +30,29 @@ TIMING_HEAD = [
 ]
 
 
+BOUND_HEAD = [
+    "scenario",
+    "cranes",
+    "lower bound",
+    "proven",
+    "greedy makespan",
+    "greedy gap",
+    "prioritized makespan",
+    "prioritized gap",
+]
+
+TASK_HEAD = [
+    "scenario",
+    "cranes",
+    "task-mode makespan",
+    "= motion",
+    "decision rounds",
+    "ms per round",
+    "motion joint steps",
+    "ms per joint step",
+]
+
+
 def num(x: float | None, digits: int = 1) -> str:
     return "-" if x is None else f"{x:.{digits}f}"
 
@@ -152,3 +175,58 @@ def markdown(head: list[str], rows: list[list[str]], left: int = 1) -> list[str]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * left + "---:|" * (len(head) - left)]
     out += ["| " + " | ".join(r) + " |" for r in rows]
     return out
+
+
+def _values(values: list) -> str:
+    """Mean of the values, (min-max) when they differ."""
+    if not values:
+        return "-"
+    mean = sum(values) / len(values)
+    lo, hi = min(values), max(values)
+    return f"{mean:.1f}" if lo == hi else f"{mean:.1f} ({lo}-{hi})"
+
+
+def _gap(res: Results, name: str, n: int, policy: str) -> str:
+    gaps = res.gaps(name, n, policy)
+    return "-" if not gaps else f"{100 * sum(gaps) / len(gaps):.1f} %"
+
+
+def bound_rows(res: Results) -> list[list[str]]:
+    """The lower bound of every setting and each planner's mean gap to it."""
+    rows = []
+    for name in res.setup.scenarios:
+        for n in res.setup.cranes:
+            b = res.bounds.get((name, n))
+            if b is None:
+                continue
+            row = [name, str(n), _values(b.values), f"{b.proven}/{len(b.values)}"]
+            for policy in PLANNERS:
+                row += [_make(res.cells.get((name, n, policy))), _gap(res, name, n, policy)]
+            rows.append(row)
+    return rows
+
+
+def task_rows(res: Results) -> list[list[str]]:
+    """The prioritized rule in task mode beside motion mode (large scenarios)."""
+    rows = []
+    for name in res.setup.scenarios:
+        for n in res.setup.cranes:
+            t = res.task.get((name, n))
+            p = res.cells.get((name, n, "prioritized"))
+            if t is None or p is None:
+                continue
+            done = [m for m in t.makespans if m is not None]
+            steps = sum(r["steps"] for r in p.results)
+            rows.append(
+                [
+                    name,
+                    str(n),
+                    _values(done),
+                    "yes" if t.same_as_motion else "no",
+                    f"{t.rounds:.1f}",
+                    f"{t.ms_per_round:.2f}",
+                    f"{steps / len(p.results):.1f}",
+                    f"{1000.0 * p.seconds / steps:.2f}",
+                ]
+            )
+    return rows
