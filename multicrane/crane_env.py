@@ -18,6 +18,7 @@ from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
 from multicrane.transitions import table_text
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
+from multicrane.validation import action_index, as_integer, handed_out, require_reset
 
 ENV_VERSION = 0
 _INITIAL = int(Status.INITIAL)
@@ -95,7 +96,8 @@ class MultiCraneEnv(ParallelEnv):
         self.auto = auto
         self.strict = strict
         self.render_mode = render_mode
-        self.step_limit = int(max_steps) if max_steps is not None else self.scenario.step_limit
+        limit = as_integer(max_steps, "max_steps") if max_steps is not None else None
+        self.step_limit = limit if limit is not None else self.scenario.step_limit
         if self.step_limit < 1:
             raise ValueError(f"max_steps must be at least 1, got {max_steps!r}")
         n = self.sim.n_cranes
@@ -109,7 +111,8 @@ class MultiCraneEnv(ParallelEnv):
             }
         )
         self._rng: np.random.Generator | None = None
-        self._masks: list[np.ndarray] = []
+        self._masks: list[np.ndarray] = []  # the env's own; callers get copies (_shown)
+        self._shown: list[np.ndarray] = []
 
     # -- spaces ------------------------------------------------------------------------------
 
@@ -130,7 +133,7 @@ class MultiCraneEnv(ParallelEnv):
         self.total_reward = 0.0
         observations = self._observe()
         infos = {
-            a: {"events": (), "reward_term": 0.0, "action_mask": self._masks[i]}
+            a: {"events": (), "reward_term": 0.0, "action_mask": self._shown[i]}
             for i, a in enumerate(self.possible_agents)
         }
         return observations, infos
@@ -163,7 +166,7 @@ class MultiCraneEnv(ParallelEnv):
             a: {
                 "events": tuple(per_crane[i]),
                 "reward_term": terms[i],
-                "action_mask": self._masks[i],
+                "action_mask": self._shown[i],
             }
             for i, a in enumerate(agents)
         }
@@ -176,11 +179,7 @@ class MultiCraneEnv(ParallelEnv):
         for i, agent in enumerate(self.possible_agents):
             if agent not in actions:
                 raise KeyError(f"step(): no action for {agent!r}; every crane acts every step")
-            a = int(actions[agent])
-            if not 0 <= a < self.sim.site.n_actions:
-                raise ValueError(
-                    f"step(): {agent} sent action {a}, outside 0..{self.sim.site.n_actions - 1}"
-                )
+            a = action_index(actions[agent], agent, self.sim.site.n_actions)
             if self.strict and not self._masks[i][a]:
                 raise ValueError(f"step(): {agent} sent illegal action {a} ({describe_action(a)})")
             joint.append(a)
@@ -196,22 +195,26 @@ class MultiCraneEnv(ParallelEnv):
             ready = claimable
         self.observer.update(sim.take_changed(), ready)
         self._masks = list(sim.action_masks())
+        self._shown = handed_out(self._masks)
         return {
-            a: {"observation": self.observer.observe(i), "action_mask": self._masks[i]}
+            a: {"observation": self.observer.observe(i), "action_mask": self._shown[i]}
             for i, a in enumerate(self.possible_agents)
         }
 
     # -- extras --------------------------------------------------------------------------------
 
     def action_masks(self) -> dict[str, np.ndarray]:
-        """The current legal-action mask of every crane."""
-        return {a: self._masks[i] for i, a in enumerate(self.possible_agents)}
+        """The current legal-action mask of every crane (copies)."""
+        require_reset(bool(self._masks), "action_masks")
+        return {a: m.copy() for a, m in zip(self.possible_agents, self._masks, strict=True)}
 
     def state(self) -> np.ndarray:
         """The global state: the occupancy grid (padded; see ``multicrane.site``)."""
+        require_reset(bool(self._masks), "state")
         return self.sim.state.occ.reshape(self.sim.site.shape).copy()
 
     def render(self) -> str | None:
+        require_reset(bool(self._masks), "render")
         if self.render_mode == "ansi":
             return render_ansi(self.sim)
         return None
