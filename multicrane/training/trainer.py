@@ -3,7 +3,9 @@
 A run lives in a directory: ``config.json``; ``checkpoint/`` (model, environment copies,
 random-generator states, and the replay buffer for DQN), written atomically at update
 boundaries every ``checkpoint_every`` steps and when interrupted (SIGINT/SIGTERM, or
-``stop_at``); ``tb/`` (TensorBoard); and, once finished, ``model.zip`` and ``result.json``.
+``stop_at``; kept with the previous one and recovered on resume, see
+``multicrane.training.checkpoints``); ``tb/`` (TensorBoard); ``run.lock`` while a process
+trains it (``multicrane.run_lock``); and, once finished, ``model.zip`` and ``result.json``.
 
 Resuming loads the checkpoint and continues exactly where it stopped: the environment copies,
 the last observations and every random generator come back, so a run interrupted and
@@ -30,6 +32,7 @@ from stable_baselines3.common.monitor import Monitor
 
 from multicrane.files import write_json_atomic
 from multicrane.rollout import evaluate, optimal_returns
+from multicrane.run_lock import RunLock
 from multicrane.training.algorithms import Algorithm, algorithm, hyperparameters, make_model
 from multicrane.training.checkpoints import (
     checkpoint_complete,
@@ -252,7 +255,12 @@ class Run:
     # -- training --------------------------------------------------------------------------
 
     def execute(self, progress_bar: bool = False, stop_at: int | None = None) -> dict | None:
-        """Train (or resume) to the budget; the result, or None when stopped early."""
+        """Train (or resume) to the budget; the result, or None when stopped early. Holds
+        the directory's lock throughout (``RunLockedError`` when another process has it)."""
+        with RunLock(self.dir, self.log):
+            return self._execute(progress_bar, stop_at)
+
+    def _execute(self, progress_bar: bool, stop_at: int | None) -> dict | None:
         done = self._claim_directory()
         if done is not None:
             return done
