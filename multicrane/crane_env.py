@@ -18,7 +18,13 @@ from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
 from multicrane.transitions import table_text
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
-from multicrane.validation import action_index, as_integer, handed_out, require_reset
+from multicrane.validation import (
+    action_index,
+    as_integer,
+    crane_count,
+    handed_out,
+    require_reset,
+)
 
 ENV_VERSION = 0
 _INITIAL = int(Status.INITIAL)
@@ -90,6 +96,7 @@ class MultiCraneEnv(ParallelEnv):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
         self.scenario = load_scenario(scenario)
+        n_cranes = crane_count(n_cranes)
         self.sim = Simulator(self.scenario, n_cranes=n_cranes, auto=auto)
         self.observer = Observer(self.sim)
         self.observation_layout = self.observer.layout

@@ -247,11 +247,16 @@ def resimulate_steps(
     must equal the recorded ones, and after the last step the recorded end metrics (return,
     steps, success, final states) must be reproduced, else :class:`RecordMismatchError`
     naming each field that differs (see :func:`end_differences`)."""
-    env = record.make_env(scenario)
+    try:
+        env = record.make_env(scenario)
+        env.reset(seed=record.seed)
+    except RecordError:
+        raise
+    except ValueError as exc:  # a scenario, crane count or seed that cannot be used
+        raise RecordError(f"episode record: cannot set up its environment: {exc}") from None
     agents = env.possible_agents
     if len(agents) != record.n_cranes:
         raise RecordError(f"episode record: {record.n_cranes} cranes, env has {len(agents)}")
-    env.reset(seed=record.seed)
     for listener in listeners:
         listener.on_reset(env)
     total = 0.0
@@ -266,7 +271,10 @@ def resimulate_steps(
             raise RecordError(
                 f"episode record: step {t} has {len(joint)} actions, not {len(agents)}"
             )
-        _, rewards, _, _, infos = env.step(dict(zip(agents, joint, strict=True)))
+        try:
+            _, rewards, _, _, infos = env.step(dict(zip(agents, joint, strict=True)))
+        except ValueError as exc:  # an action outside the action space
+            raise RecordError(f"episode record: step {t}: {exc}") from None
         r = float(rewards[agents[0]])
         total += r
         events = _events_of(env, infos)

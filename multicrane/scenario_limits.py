@@ -13,7 +13,7 @@ import math
 import tomllib
 from typing import Any
 
-from multicrane.scenario import ScenarioError
+from multicrane.scenario import Scenario, ScenarioError
 from multicrane.toml_table import TomlTable
 
 MAX_FILE_BYTES = 4 * 1024 * 1024  # a scenario file is at most 4 MiB
@@ -77,32 +77,36 @@ def check_site_volume(site: TomlTable, size: tuple[int, ...]) -> None:
         )
 
 
-def check_component_count(top: TomlTable, n: int) -> None:
+def check_component_count(source: str, data: dict[str, Any]) -> None:
     """The number of ``[[components]]`` against ``MAX_COMPONENTS`` (before reading them)."""
-    if n > MAX_COMPONENTS:
-        raise top.fail(
-            "components",
-            f"<{n} tables>",
-            f"at most {MAX_COMPONENTS} components (MAX_COMPONENTS: the occupancy grid is int16)",
+    comps = data.get("components")
+    if isinstance(comps, list) and len(comps) > MAX_COMPONENTS:
+        raise ScenarioError(
+            f"{source}: components: {len(comps)} components; at most {MAX_COMPONENTS} "
+            "(MAX_COMPONENTS: the occupancy grid is int16)"
         )
 
 
-def check_int(table: TomlTable, key: str, value: int, lo: int, hi: int, limit: str) -> None:
-    """``lo <= value <= hi``, else an error naming the key, the value and the limit."""
-    if value < lo:
-        raise table.fail(
-            key, value, "must not be negative" if lo == 0 else f"must be at least {lo}"
-        )
-    if value > hi:
-        raise table.fail(key, value, f"must be at most {hi} ({limit})")
+def check_numbers(s: Scenario) -> None:
+    """Upper bounds of the rules' counts and the reward parameters' range (the loader has
+    checked their types and lower bounds); errors name file, key, value and limit."""
 
+    def fail(key: str, value: Any, problem: str) -> ScenarioError:
+        return ScenarioError(f"{s.source}: {key} = {value!r}: {problem}")
 
-def check_reward(table: TomlTable, values: dict[str, float]) -> None:
-    """Reward parameters: finite, not negative, at most ``MAX_REWARD``."""
-    for key, value in values.items():
+    for key, value, hi, limit in (
+        ("rules.cranes", s.cranes, MAX_CRANES, "MAX_CRANES"),
+        ("rules.step_limit", s.step_limit, MAX_STEP_LIMIT, "MAX_STEP_LIMIT"),
+        ("rules.assembly_steps", s.assembly_steps, MAX_ASSEMBLY_STEPS, "MAX_ASSEMBLY_STEPS"),
+        ("reward.move_limit", s.reward.move_limit, MAX_STEP_LIMIT, "MAX_STEP_LIMIT"),
+    ):
+        if value > hi:
+            raise fail(key, value, f"must be at most {hi} ({limit})")
+    for name in ("completion", "over_limit_cost", "step_cost"):
+        value = getattr(s.reward, name)
         if not math.isfinite(value):
-            raise table.fail(key, value, "must be a finite number (not nan or inf)")
+            raise fail(f"reward.{name}", value, "must be a finite number (not nan or inf)")
         if value < 0:
-            raise table.fail(key, value, "must not be negative")
+            raise fail(f"reward.{name}", value, "must not be negative")
         if value > MAX_REWARD:
-            raise table.fail(key, value, f"must be at most {MAX_REWARD:g} (MAX_REWARD)")
+            raise fail(f"reward.{name}", value, f"must be at most {MAX_REWARD:g} (MAX_REWARD)")

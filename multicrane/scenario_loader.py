@@ -24,15 +24,6 @@ from multicrane.scenario import (
 )
 from multicrane.scenario_catalog import resolve
 from multicrane.scenario_checks import check_scenario
-from multicrane.scenario_limits import (
-    MAX_ASSEMBLY_STEPS,
-    MAX_CRANES,
-    MAX_STEP_LIMIT,
-    check_component_count,
-    check_int,
-    check_reward,
-    check_site_volume,
-)
 from multicrane.scenario_solvable import check_solvable
 from multicrane.toml_table import TomlTable
 from multicrane.types import Kind
@@ -53,13 +44,17 @@ def parse_scenario(raw: bytes | str, source: str = "<string>", default_name: str
     """Validate scenario text; ``source`` is the name used in error messages."""
     try:
         data_bytes = raw.encode("utf-8") if isinstance(raw, str) else raw
-        data = scenario_limits.parse_toml(data_bytes, source)
+        data = scenario_limits.parse_toml(data_bytes, source)  # size and nesting bounded
     except UnicodeError as exc:
         raise ScenarioError(f"{source}: not UTF-8 text ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{source}: not valid TOML: {exc}") from None
+    scenario_limits.check_component_count(source, data)
     builder = _Builder(source, data, hashlib.sha256(data_bytes).hexdigest(), default_name)
-    return builder.build()
+    scenario = builder.build()
+    scenario_limits.check_numbers(scenario)
+    check_solvable(scenario)
+    return scenario
 
 
 _DIRECTIONS = {
@@ -100,7 +95,6 @@ class _Builder:
         rules = top.table("rules")
         reward = self._reward(top.table("reward", required=False))
         random_start = self._random_start(top.table("random_start", required=False))
-        check_component_count(top, len(top.get("components", list)))
         comp_tables = top.tables("components")
         top.finish()
         if not comp_tables:
@@ -115,13 +109,14 @@ class _Builder:
         ]
         order = self._order(rules, ids)
         cranes = rules.get("cranes", int, 1)
-        check_int(rules, "cranes", cranes, 1, MAX_CRANES, "MAX_CRANES")
+        if cranes < 1:
+            raise rules.fail("cranes", cranes, "must be at least 1")
         step_limit = rules.get("step_limit", int)
-        check_int(rules, "step_limit", step_limit, 1, MAX_STEP_LIMIT, "MAX_STEP_LIMIT")
+        if step_limit < 1:
+            raise rules.fail("step_limit", step_limit, "must be at least 1")
         assembly_steps = rules.get("assembly_steps", int, 1)
-        check_int(
-            rules, "assembly_steps", assembly_steps, 1, MAX_ASSEMBLY_STEPS, "MAX_ASSEMBLY_STEPS"
-        )
+        if assembly_steps < 1:
+            raise rules.fail("assembly_steps", assembly_steps, "must be at least 1")
         beam_lift_z = rules.get("beam_lift_z", int, None)
         if beam_lift_z is not None and not 1 <= beam_lift_z <= size[2]:
             raise rules.fail("beam_lift_z", beam_lift_z, f"must lie in 1..{size[2]}")
@@ -147,7 +142,6 @@ class _Builder:
             random_start=random_start,
         )
         check_scenario(scenario, comp_tables)
-        check_solvable(scenario, comp_tables)
         return scenario
 
     # -- site ------------------------------------------------------------------------------
@@ -156,7 +150,7 @@ class _Builder:
         size = site.ints("size", 3)
         if any(v < 1 for v in size) or size[0] > 256 or size[1] > 256 or size[2] > 64:
             raise site.fail("size", list(size), "must be 1..256 cells along x and y, height 1..64")
-        check_site_volume(site, size)
+        scenario_limits.check_site_volume(site, size)
         return size  # type: ignore[return-value]
 
     def _area(self, site: TomlTable) -> tuple[int, int, int, int]:
@@ -224,15 +218,8 @@ class _Builder:
             step_cost=t.get("step_cost", float, RewardSpec.step_cost),
         )
         t.finish()
-        check_int(t, "move_limit", spec.move_limit, 0, MAX_STEP_LIMIT, "MAX_STEP_LIMIT")
-        check_reward(
-            t,
-            {
-                "completion": spec.completion,
-                "over_limit_cost": spec.over_limit_cost,
-                "step_cost": spec.step_cost,
-            },
-        )
+        if spec.move_limit < 0:
+            raise t.fail("move_limit", spec.move_limit, "must not be negative")
         return spec
 
     def _random_start(self, t: TomlTable | None) -> RandomStart | None:

@@ -32,9 +32,11 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
     component, or when the supports form a cycle (``tables``: the components' tables)."""
 
     def fail(i: int, key: str, problem: str) -> ScenarioError:
-        if tables is None:
-            return ScenarioError(f"{s.source}: components[{i}] ({s.components[i].id!r}): {problem}")
-        return tables[i].fail(key, tables[i].data.get(key), problem)
+        if tables is not None:
+            return tables[i].fail(key, tables[i].data.get(key), problem)
+        c = s.components[i]
+        value = [list(p) for p in c.target] if key == "target" else [s.ids[j] for j in c.supports]
+        return ScenarioError(f"{s.source}: components[{i}].{key} = {value!r}: {problem}")
 
     cycle = precedence_cycle(s)
     if cycle:

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from multicrane.scenario_limits import MAX_CRANES
+
 
 class ActionTypeError(TypeError, ValueError):
     """An action that is not an integer (a ``TypeError`` and, for old callers, a
@@ -38,6 +40,17 @@ def action_index(value: Any, agent: str, n_actions: int) -> int:
     if not 0 <= a < n_actions:
         raise ValueError(f"step(): {agent} sent action {a}, outside 0..{n_actions - 1}")
     return a
+
+
+def crane_count(n_cranes: Any) -> int | None:
+    """The environment's ``n_cranes`` option: None (the scenario's) or an integer in
+    1..``MAX_CRANES``; else TypeError/ValueError naming the value."""
+    if n_cranes is None:
+        return None
+    n = as_integer(n_cranes, "n_cranes")
+    if not 1 <= n <= MAX_CRANES:
+        raise ValueError(f"n_cranes must be 1..{MAX_CRANES} (MAX_CRANES), got {n}")
+    return n
 
 
 def require_reset(started: bool, method: str) -> None:

@@ -45,6 +45,14 @@ def test_paper_env_refuses_non_integer_actions(value):
         env.step(value)
 
 
+def test_n_cranes_must_be_an_integer_in_range():
+    with pytest.raises(TypeError, match=r"n_cranes must be an integer, got 2\.7"):
+        multicrane.parallel_env("e2s2", n_cranes=2.7)
+    with pytest.raises(ValueError, match="MAX_CRANES"):
+        multicrane.parallel_env("e2s2", n_cranes=100_000_000)
+    assert multicrane.parallel_env("e2s2", n_cranes=np.int64(3)).sim.n_cranes == 3
+
+
 def test_max_steps_must_be_an_integer():
     with pytest.raises(TypeError, match="max_steps"):
         multicrane.parallel_env("e2s2", max_steps=2.7)
