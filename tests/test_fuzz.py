@@ -11,6 +11,9 @@ loaded one must re-simulate or raise ``RecordError``. Nothing else is acceptable
 The default sizes fit the suite; ``-m fuzz`` runs the large sizes (see docs/reliability.md):
 
     MULTICRANE_FUZZ_EXAMPLES=2000 python -m pytest -m fuzz tests/test_fuzz.py
+
+and ``python tests/test_fuzz.py N`` runs N random cases of each kind and prints the outcome
+counts and times (the figures of docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -173,7 +176,9 @@ def test_unmutated_scenarios_play():
         assert run_scenario_case(name, to_toml(PARSED[name]).encode()) == "played", name
 
 
-COMMON = dict(deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+COMMON = dict(
+    deadline=None, derandomize=True, database=None, suppress_health_check=list(HealthCheck)
+)
 
 
 @pytest.fixture
@@ -278,3 +283,39 @@ def test_fuzz_records(tmp_path_factory, case):
 @given(mutated_record())
 def test_fuzz_records_large(large_run, tmp_path_factory, case):
     run_record_case(tmp_path_factory.mktemp("rec"), *case)
+
+
+def _figures(n: int) -> None:
+    """Outcome counts and times of ``n`` random cases of each kind."""
+    import collections
+    import tempfile
+    import time
+    from pathlib import Path
+
+    counts: collections.Counter = collections.Counter()
+    quick = settings(max_examples=n, **{**COMMON, "derandomize": False})
+
+    @quick
+    @given(mutated_scenario())
+    def scenarios(case):
+        counts["scenario " + run_scenario_case(*case)] += 1
+
+    tmp = Path(tempfile.mkdtemp())
+
+    @quick
+    @given(mutated_record())
+    def records(case):
+        counts["record " + run_record_case(tmp, *case)] += 1
+
+    t0 = time.perf_counter()
+    scenarios()
+    t1 = time.perf_counter()
+    records()
+    t2 = time.perf_counter()
+    print(dict(sorted(counts.items())), f"scenarios {t1 - t0:.1f} s, records {t2 - t1:.1f} s")
+
+
+if __name__ == "__main__":
+    import sys
+
+    _figures(int(sys.argv[1]) if len(sys.argv) > 1 else 2000)
