@@ -146,3 +146,20 @@ def test_lock_file_is_json_naming_the_owner(tmp_path):
     with RunLock(tmp_path):
         data = json.loads((tmp_path / LOCK).read_text())
         assert data["pid"] == os.getpid() and set(data) == {"pid", "host", "started"}
+
+
+def test_train_command_on_a_locked_run_is_one_error_line(tmp_path, capsys):
+    pytest.importorskip("stable_baselines3")
+    from multicrane.cli import main
+
+    run_dir = tmp_path / "run"
+    holder = _python(HOLDER, str(run_dir))
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        argv = ["train", "--paper", "E1S1", "--algo", "ppo", "--steps", "64", "--out", str(run_dir)]
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"in use by process {holder.pid}" in err[0], err
+    finally:
+        holder.kill()
+        holder.wait()
