@@ -134,14 +134,15 @@ class Fields:
     def integer(self, key: str, lo: int | None = None) -> int:
         return self._int(key, self._get(key), lo)
 
-    def _rows(self, key: str) -> list:
-        value = self._get(key)
+    def _rows(self, key: str, default: Any = ...) -> list:
+        value = self._get(key, default)
         if not isinstance(value, list) or not all(isinstance(row, list) for row in value):
             raise self.fail(key, "must be a list of lists (one per step)")
         return value
 
-    def actions(self, key: str) -> list[list[int]]:
-        return [[self._int(key, a, 0) for a in step] for step in self._rows(key)]
+    def actions(self, key: str, default: Any = ...) -> list[list[int]]:
+        """Rows of non-negative integers (joint actions, or task decisions with ``[]``)."""
+        return [[self._int(key, a, 0) for a in step] for step in self._rows(key, default)]
 
     def events(self, key: str) -> list[list[tuple[str, int, int]]]:
         out = []
