@@ -19,6 +19,13 @@ from multicrane.simulator import NOBODY, Simulator
 from multicrane.task_mode import TaskMode
 from multicrane.transitions import table_text
 from multicrane.types import CLAIM_BASE, Event, EventType, Status
+from multicrane.validation import (
+    action_index,
+    as_integer,
+    crane_count,
+    handed_out,
+    require_reset,
+)
 
 ENV_VERSION = 0
 DECISIONS = ("motion", "task")
@@ -125,6 +132,7 @@ class MultiCraneEnv(ParallelEnv):
         self.decisions = decisions
         self.reward = reward
         self.scenario = load_scenario(scenario)
+        n_cranes = crane_count(n_cranes)
         self.sim = Simulator(self.scenario, n_cranes=n_cranes, auto=auto)
         self.task_mode: TaskMode | None = None
         if decisions == "task":
@@ -136,7 +144,8 @@ class MultiCraneEnv(ParallelEnv):
         self.auto = auto
         self.strict = strict
         self.render_mode = render_mode
-        self.step_limit = int(max_steps) if max_steps is not None else self.scenario.step_limit
+        limit = as_integer(max_steps, "max_steps") if max_steps is not None else None
+        self.step_limit = limit if limit is not None else self.scenario.step_limit
         if self.step_limit < 1:
             raise ValueError(f"max_steps must be at least 1, got {max_steps!r}")
         n = self.sim.n_cranes
@@ -152,7 +161,8 @@ class MultiCraneEnv(ParallelEnv):
             }
         )
         self._rng: np.random.Generator | None = None
-        self._masks: list[np.ndarray] = []
+        self._masks: list[np.ndarray] = []  # the env's own; callers get copies (_shown)
+        self._shown: list[np.ndarray] = []
 
     # -- spaces ------------------------------------------------------------------------------
 
@@ -175,7 +185,7 @@ class MultiCraneEnv(ParallelEnv):
             self.task_mode.reset()
         observations = self._observe()
         infos = {
-            a: {"events": (), "reward_term": 0.0, "action_mask": self._masks[i]}
+            a: {"events": (), "reward_term": 0.0, "action_mask": self._shown[i]}
             for i, a in enumerate(self.possible_agents)
         }
         return observations, infos
@@ -203,7 +213,7 @@ class MultiCraneEnv(ParallelEnv):
             a: {
                 "events": tuple(per_crane[i]),
                 "reward_term": terms[i],
-                "action_mask": self._masks[i],
+                "action_mask": self._shown[i],
             }
             for i, a in enumerate(agents)
         }
@@ -230,11 +240,7 @@ class MultiCraneEnv(ParallelEnv):
         for i, agent in enumerate(self.possible_agents):
             if agent not in actions:
                 raise KeyError(f"step(): no action for {agent!r}; every crane acts every step")
-            a = int(actions[agent])
-            if not 0 <= a < self.n_actions:
-                raise ValueError(
-                    f"step(): {agent} sent action {a}, outside 0..{self.n_actions - 1}"
-                )
+            a = action_index(actions[agent], agent, self.n_actions)
             if self.strict and not self._masks[i][a]:
                 what = describe_action(a) if self.task_mode is None else self.task_mode.describe(a)
                 raise ValueError(f"step(): {agent} sent illegal action {a} ({what})")
@@ -245,8 +251,9 @@ class MultiCraneEnv(ParallelEnv):
         if self.task_mode is not None:
             obs = self.task_mode.observe()
             self._masks = list(self.observer.masks)
+            self._shown = handed_out(self._masks)
             return {
-                a: {"observation": obs[i], "action_mask": self._masks[i]}
+                a: {"observation": obs[i], "action_mask": self._shown[i]}
                 for i, a in enumerate(self.possible_agents)
             }
         sim = self.sim
@@ -258,8 +265,9 @@ class MultiCraneEnv(ParallelEnv):
             ready = claimable
         self.observer.update(sim.take_changed(), ready)
         self._masks = list(sim.action_masks())
+        self._shown = handed_out(self._masks)
         return {
-            a: {"observation": self.observer.observe(i), "action_mask": self._masks[i]}
+            a: {"observation": self.observer.observe(i), "action_mask": self._shown[i]}
             for i, a in enumerate(self.possible_agents)
         }
 
@@ -274,14 +282,17 @@ class MultiCraneEnv(ParallelEnv):
         return self.task_mode.feasible(int(crane), int(task))
 
     def action_masks(self) -> dict[str, np.ndarray]:
-        """The current legal-action mask of every crane."""
-        return {a: self._masks[i] for i, a in enumerate(self.possible_agents)}
+        """The current legal-action mask of every crane (copies)."""
+        require_reset(bool(self._masks), "action_masks")
+        return {a: m.copy() for a, m in zip(self.possible_agents, self._masks, strict=True)}
 
     def state(self) -> np.ndarray:
         """The global state: the occupancy grid (padded; see ``multicrane.site``)."""
+        require_reset(bool(self._masks), "state")
         return self.sim.state.occ.reshape(self.sim.site.shape).copy()
 
     def render(self) -> str | None:
+        require_reset(bool(self._masks), "render")
         if self.render_mode == "ansi":
             return render_ansi(self.sim)
         return None

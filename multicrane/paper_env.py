@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import operator
 from typing import Any
 
 import gymnasium as gym
@@ -27,6 +26,7 @@ from multicrane.scenario import Scenario
 from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
 from multicrane.types import N_MOVES
+from multicrane.validation import as_integer, require_reset
 
 PAPER_CONFIGS = tuple(f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5))
 PAPER_ENV_VERSION = 0
@@ -139,10 +139,8 @@ class PaperAssemblyEnv(gym.Env):
 
     def step(self, action):
         sim = self.sim
-        try:
-            a = operator.index(action)  # ints and numpy integers; not floats
-        except TypeError:
-            raise ValueError(f"action must be an integer 0..5, got {action!r}") from None
+        require_reset(sim.state is not None, "step")
+        a = as_integer(action, "action")  # ints and numpy integers; not floats, bools, str
         if not 0 <= a < N_MOVES:
             raise ValueError(f"action must be 0..5 (x-1, y-1, x+1, y+1, up, down), got {action!r}")
         out = sim.step([a])
@@ -172,10 +170,12 @@ class PaperAssemblyEnv(gym.Env):
 
     def action_masks(self) -> np.ndarray:
         """Moves that would not be blocked (with ``mask_blocked_moves``); else all six."""
+        require_reset(self.sim.state is not None, "action_masks")
         if not self.mask_blocked_moves:
             return np.ones(N_MOVES, dtype=np.int8)
         moves = self.sim.action_masks()[0, :N_MOVES]
         return moves if moves.any() else np.ones(N_MOVES, dtype=np.int8)
 
     def render(self) -> str | None:
+        require_reset(self.sim.state is not None, "render")
         return render_ansi(self.sim) if self.render_mode == "ansi" else None

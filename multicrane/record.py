@@ -15,20 +15,23 @@ the motion mode, with the paper reward as its return; its task decisions are kep
 crane order from its generator seeded at reset, so the same seed and actions give the same
 episode. :func:`resimulate` refuses a record whose scenario file changed
 (:class:`ScenarioMismatchError`) and one whose re-simulation differs from what was recorded
-(:class:`RecordMismatchError`); both are ``ValueError`` subclasses.
+(:class:`RecordMismatchError`, naming each field: recorded vs re-simulated); both are
+``ValueError`` subclasses. A saved file carries ``checksum``, the SHA-256 of its canonical
+content (see ``multicrane.record_file``): a file changed after it was written, or one that
+cannot be read (corrupt gzip, bad JSON, truncated), is a :class:`RecordError` naming the file
+and the problem. Files written before checksums existed load with a ``RecordWarning``.
 
 This module does not import rerun (see ``multicrane.viewer`` for the 3D viewer).
 """
 
 from __future__ import annotations
 
-import gzip
-import json
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
+from multicrane import record_file
 from multicrane.crane_env import MultiCraneEnv
 from multicrane.rollout import run_episode
 from multicrane.scenario import Scenario
@@ -40,8 +43,8 @@ RECORD_FORMAT = 1
 EventRow = tuple[str, int, int]  # (event type name, crane, component or -1)
 
 
-class RecordError(ValueError):
-    """An episode record that cannot be used; the message says why."""
+RecordError = record_file.RecordError
+RecordWarning = record_file.RecordWarning
 
 
 class ScenarioMismatchError(RecordError):
@@ -98,52 +101,36 @@ class EpisodeRecord:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<dict>") -> EpisodeRecord:
+        """A record from its dict, every field checked for type (no coercion: 2.7 is not 2)."""
         if not isinstance(data, dict):
             raise RecordError(f"{source}: not an episode record (top level is not an object)")
         fmt = data.get("format")
-        if fmt != RECORD_FORMAT:
+        if fmt != RECORD_FORMAT or isinstance(fmt, bool):
             raise RecordError(f"{source}: record format {fmt!r} is not {RECORD_FORMAT}")
-        try:
-            return cls(
-                scenario=str(data["scenario"]),
-                scenario_sha256=str(data["scenario_sha256"]),
-                scenario_source=str(data.get("scenario_source", "")),
-                seed=int(data["seed"]),
-                n_cranes=int(data["n_cranes"]),
-                auto=bool(data["auto"]),
-                max_steps=int(data["max_steps"]),
-                actions=[[int(a) for a in step] for step in data["actions"]],
-                events=[[(str(t), int(c), int(k)) for t, c, k in step] for step in data["events"]],
-                metrics=dict(data["metrics"]),
-                policy=str(data.get("policy", "")),
-                decisions=[[int(a) for a in step] for step in data.get("decisions", [])],
-            )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise RecordError(f"{source}: malformed episode record ({exc!r})") from None
+        f = record_file.Fields(source, data)
+        return cls(
+            scenario=f.text("scenario"),
+            scenario_sha256=f.text("scenario_sha256"),
+            scenario_source=f.text("scenario_source", ""),
+            seed=f.integer("seed"),
+            n_cranes=f.integer("n_cranes", 1),
+            auto=f.flag("auto"),
+            max_steps=f.integer("max_steps", 1),
+            actions=f.actions("actions"),
+            events=f.events("events"),
+            metrics=f.metrics("metrics"),
+            policy=f.text("policy", ""),
+            decisions=f.actions("decisions", []),
+        )
 
     def save(self, path: str | Path) -> Path:
-        """Write JSON (gzip-compressed when the name ends in ``.gz``)."""
-        path = Path(path)
-        text = json.dumps(self.to_dict(), separators=(",", ":"))
-        if path.suffix == ".gz":
-            with gzip.open(path, "wt", encoding="utf-8") as f:
-                f.write(text)
-        else:
-            path.write_text(text, encoding="utf-8")
-        return path
+        """Write JSON with its checksum (gzip-compressed when the name ends in ``.gz``)."""
+        return record_file.write(path, self.to_dict())
 
     @classmethod
     def load(cls, path: str | Path) -> EpisodeRecord:
-        path = Path(path)
-        try:
-            if path.suffix == ".gz":
-                with gzip.open(path, "rt", encoding="utf-8") as f:
-                    data = json.load(f)
-            else:
-                data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError, UnicodeError) as exc:
-            raise RecordError(f"{path}: cannot read episode record: {exc}") from None
-        return cls.from_dict(data, source=str(path))
+        """Read a record file, checking its checksum; any problem is one RecordError."""
+        return cls.from_dict(record_file.read(path), source=str(path))
 
     # -- the scenario --------------------------------------------------------------------
 
@@ -275,14 +262,22 @@ def resimulate_steps(
 ) -> Iterator[tuple[MultiCraneEnv, int, float, list[EventRow]]]:
     """Re-simulate a record step by step: yields ``(env, step, reward, events)``, first for
     the reset (step 0, reward 0), then after each step. With ``check`` every step's events
-    must equal the recorded ones, else :class:`RecordMismatchError`."""
-    env = record.make_env(scenario)
+    must equal the recorded ones, and after the last step the recorded end metrics (return,
+    steps, success, final states) must be reproduced, else :class:`RecordMismatchError`
+    naming each field that differs (see :func:`end_differences`)."""
+    try:
+        env = record.make_env(scenario)
+        env.reset(seed=record.seed)
+    except RecordError:
+        raise
+    except ValueError as exc:  # a scenario, crane count or seed that cannot be used
+        raise RecordError(f"episode record: cannot set up its environment: {exc}") from None
     agents = env.possible_agents
     if len(agents) != record.n_cranes:
         raise RecordError(f"episode record: {record.n_cranes} cranes, env has {len(agents)}")
-    env.reset(seed=record.seed)
     for listener in listeners:
         listener.on_reset(env)
+    total = 0.0
     yield env, 0, 0.0, []
     for t, joint in enumerate(record.actions, start=1):
         if not env.agents:
@@ -294,8 +289,12 @@ def resimulate_steps(
             raise RecordError(
                 f"episode record: step {t} has {len(joint)} actions, not {len(agents)}"
             )
-        _, rewards, _, _, infos = env.step(dict(zip(agents, joint, strict=True)))
+        try:
+            _, rewards, _, _, infos = env.step(dict(zip(agents, joint, strict=True)))
+        except ValueError as exc:  # an action outside the action space
+            raise RecordError(f"episode record: step {t}: {exc}") from None
         r = float(rewards[agents[0]])
+        total += r
         events = _events_of(env, infos)
         if check and t <= len(record.events) and events != list(record.events[t - 1]):
             raise RecordMismatchError(
@@ -304,7 +303,41 @@ def resimulate_steps(
             )
         for listener in listeners:
             listener.on_step(env, joint, r, events)
+        if check and t == record.steps:
+            _verify_end(record, env, total)
         yield env, t, r, events
+    if check and not record.steps:
+        _verify_end(record, env, total)
+
+
+def end_differences(record: EpisodeRecord, env: MultiCraneEnv, total: float) -> list[str]:
+    """Each recorded end metric that the re-simulated episode does not reproduce, as
+    ``field: recorded X, re-simulated Y`` (empty when all agree)."""
+    m = record.metrics
+    out = []
+    if env.agents:
+        out.append(f"end: the record ends after {record.steps} steps, the episode goes on")
+    if "return" in m and abs(total - float(m["return"])) > 1e-6 * max(1.0, abs(total)):
+        out.append(f"return: recorded {float(m['return']):g}, re-simulated {total:g}")
+    steps = int(env.sim.state.step_count)
+    if "steps" in m and int(m["steps"]) != steps:
+        out.append(f"steps: recorded {m['steps']}, re-simulated {steps}")
+    success = bool(env.sim.done)
+    if "success" in m and bool(m["success"]) != success:
+        out.append(f"success: recorded {m['success']}, re-simulated {success}")
+    status = [int(x) for x in env.sim.state.status]
+    if "final_status" in m and list(m["final_status"]) != status:
+        out.append(f"final_status: recorded {list(m['final_status'])}, re-simulated {status}")
+    return out
+
+
+def _verify_end(record: EpisodeRecord, env: MultiCraneEnv, total: float) -> None:
+    problems = end_differences(record, env, total)
+    if problems:
+        raise RecordMismatchError(
+            f"episode record refused: {record.scenario!r} (seed {record.seed}): "
+            + "; ".join(problems)
+        )
 
 
 def resimulate(
@@ -325,30 +358,15 @@ def resimulate(
         if t:
             rewards.append(r)
     assert env is not None
-    total = sum(rewards)
-    m = record.metrics
-    problems = []
-    if env.agents:
-        problems.append(f"the episode is not over after the recorded {record.steps} steps")
-    if "return" in m and abs(total - float(m["return"])) > 1e-6 * max(1.0, abs(total)):
-        problems.append(f"return {total:g} differs from the recorded {float(m['return']):g}")
-    if "steps" in m and int(m["steps"]) != len(rewards):
-        problems.append(f"{len(rewards)} steps, the record says {m['steps']}")
-    final = final_state(env)
-    if "final_status" in m and list(m["final_status"]) != final["status"]:
-        problems.append("the final component states differ from the recorded ones")
-    if problems:
-        raise RecordMismatchError(
-            f"episode record refused: {record.scenario!r} (seed {record.seed}): "
-            + "; ".join(problems)
-        )
-    return env, rewards, final
+    return env, rewards, final_state(env)
 
 
 __all__ = [
     "EpisodeRecord",
     "RecordError",
     "RecordMismatchError",
+    "RecordWarning",
+    "end_differences",
     "ScenarioMismatchError",
     "StepListener",
     "final_state",

@@ -12,7 +12,7 @@ import math
 import tomllib
 from pathlib import Path
 
-from multicrane import geometry
+from multicrane import geometry, scenario_limits
 from multicrane.scenario import (
     Band,
     Box,
@@ -26,6 +26,7 @@ from multicrane.scenario import (
 )
 from multicrane.scenario_catalog import resolve
 from multicrane.scenario_checks import check_reach, check_scenario
+from multicrane.scenario_solvable import check_solvable
 from multicrane.toml_table import TomlTable
 from multicrane.types import Kind
 
@@ -45,13 +46,17 @@ def parse_scenario(raw: bytes | str, source: str = "<string>", default_name: str
     """Validate scenario text; ``source`` is the name used in error messages."""
     try:
         data_bytes = raw.encode("utf-8") if isinstance(raw, str) else raw
-        data = tomllib.loads(data_bytes.decode("utf-8"))
+        data = scenario_limits.parse_toml(data_bytes, source)  # size and nesting bounded
     except UnicodeError as exc:
         raise ScenarioError(f"{source}: not UTF-8 text ({exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{source}: not valid TOML: {exc}") from None
+    scenario_limits.check_component_count(source, data)
     builder = _Builder(source, data, hashlib.sha256(data_bytes).hexdigest(), default_name)
-    return builder.build()
+    scenario = builder.build()
+    scenario_limits.check_numbers(scenario)
+    check_solvable(scenario)
+    return scenario
 
 
 _DIRECTIONS = {
@@ -157,6 +162,7 @@ class _Builder:
         size = site.ints("size", 3)
         if any(v < 1 for v in size) or size[0] > 256 or size[1] > 256 or size[2] > 64:
             raise site.fail("size", list(size), "must be 1..256 cells along x and y, height 1..64")
+        scenario_limits.check_site_volume(site, size)
         return size  # type: ignore[return-value]
 
     def _area(self, site: TomlTable) -> tuple[int, int, int, int]:

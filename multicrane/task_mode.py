@@ -95,7 +95,7 @@ class TaskMode:
                 "elapsed": elapsed,
                 "crane_steps": busy,
                 "reward_term": terms_sum[i],
-                "action_mask": env._masks[i],
+                "action_mask": env._shown[i],
             }
             for i, a in enumerate(agents)
         }

@@ -12,7 +12,11 @@ Ctrl-C reaches only the driver, which then:
 3. on a third, kills the workers.
 
 A worker that dies (out of memory, a crash in native code) fails its run; a new worker
-takes its place.
+takes its place. A worker whose driver dies (even by SIGKILL, which no handler sees) notices
+within a second (a thread watching ``os.getppid()``): it stops its run as on a first Ctrl-C
+(SIGTERM: a checkpoint at the next update) and exits, or is ended after ``orphan_grace``
+seconds. Each run's directory lock (``multicrane.run_lock``) keeps a second sweep from
+training a run that such a worker still holds.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import contextlib
 import multiprocessing
 import os
 import signal
+import threading
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
@@ -32,9 +37,25 @@ from multicrane.benchmark import interrupts
 from multicrane.benchmark.tasks import Outcome, Report, Task, execute_run
 
 
-def _serve(conn, runner: Callable[[Task], Outcome]) -> None:
-    """A worker: run the tasks the driver sends until it sends None."""
+def _watch_parent(parent: int, grace: float, poll: float = 0.5) -> None:
+    """End this worker when its driver (``parent``) has died: SIGTERM to itself (the
+    trainer stops at its next update with a checkpoint), then exit after ``grace`` s."""
+    while os.getppid() == parent:
+        time.sleep(poll)
+    print(f"multicrane worker {os.getpid()}: the sweep driver {parent} has died; stopping")
+    with contextlib.suppress(OSError):
+        os.kill(os.getpid(), signal.SIGTERM)
+    time.sleep(grace)
+    os._exit(3)
+
+
+def _serve(conn, runner: Callable[[Task], Outcome], orphan_grace: float = 60.0) -> None:
+    """A worker: run the tasks the driver sends until it sends None (or the driver dies)."""
     os.setpgrp()  # Ctrl-C in the terminal goes to the driver only; it forwards signals
+    parent = os.getppid()
+    threading.Thread(
+        target=_watch_parent, args=(parent, orphan_grace), daemon=True, name="parent-watch"
+    ).start()
     signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the trainer's handler takes it in a run
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     try:
@@ -84,11 +105,13 @@ class LocalBackend:
         runner: Callable[[Task], Outcome] = execute_run,
         log: Callable[[str], None] = print,
         resend_seconds: float = 1.0,
+        orphan_grace: float = 60.0,
     ):
         self.workers = max(1, workers or os.cpu_count() or 1)
         self.runner = runner
         self.log = log
         self.resend_seconds = resend_seconds
+        self.orphan_grace = orphan_grace
         self._interrupts = 0  # signals received
         self._handled = 0  # signals acted upon
         self._queue: deque[Task] = deque()
@@ -140,7 +163,7 @@ class LocalBackend:
     def _start_worker(self) -> _Worker:
         parent, child = self._ctx.Pipe()
         process = self._ctx.Process(
-            target=_serve, args=(child, self.runner), name="multicrane-bench"
+            target=_serve, args=(child, self.runner, self.orphan_grace), name="multicrane-bench"
         )
         process.start()
         child.close()

@@ -124,10 +124,11 @@ def inspect_run(spec: RunSpec, run_dir: Path) -> RunState:
 
 def _recoverable_checkpoint(run_dir: Path) -> tuple[Path | None, int | None]:
     """A complete checkpoint left as ``checkpoint.tmp``/``checkpoint.old`` when a save was
-    cut between its two renames (``checkpoint/`` itself missing)."""
+    cut between its two renames, or the kept ``checkpoint.prev`` (``checkpoint/`` itself
+    missing; see ``multicrane.training.checkpoints``)."""
     if (run_dir / CHECKPOINT).exists():
         return None, None
-    for suffix in (".tmp", ".old"):  # .tmp is the newer one
+    for suffix in (".tmp", ".old", ".prev"):  # newest first
         candidate = run_dir / (CHECKPOINT + suffix)
         try:
             return candidate, int((candidate / "steps.txt").read_text().strip())

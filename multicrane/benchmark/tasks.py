@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from multicrane.benchmark.runstate import ERROR
+from multicrane.run_lock import RunLockedError
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,8 @@ def execute_run(task: Task) -> Outcome:
         from multicrane.training import TrainConfig, train
 
         result = train(TrainConfig(**task.train), run_dir, progress_bar=False, log=log)
+    except RunLockedError as exc:  # another live process trains it: leave its files alone
+        return Outcome(task.name, "failed", time.perf_counter() - start, error=str(exc))
     except KeyboardInterrupt:
         return Outcome(
             task.name,

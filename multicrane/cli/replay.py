@@ -21,9 +21,12 @@ DESCRIPTION = """3D replays of episodes with rerun (needs the 'replay' extra: re
     multicrane replay bench --scenario hall-4c --policy random --steps 1000
 
 live streams an episode step by step while it runs; record runs one and saves an .rrd file
-and/or an episode record (JSON, gzip for .gz); replay re-simulates a saved record (refusing
-one whose scenario changed) into a viewer or a file; bench times an episode with and without
-recording it to a file.
+and/or an episode record (JSON, gzip for .gz); replay re-simulates a saved record into a
+viewer or a file, checking every step's events and the recorded end (return, steps, success,
+final states); it refuses a record whose scenario changed or whose re-simulation differs
+(status 2, naming each field: recorded vs re-simulated) and a file that cannot be read or
+was changed after it was written (checksum; status 1); bench times an episode with and
+without recording it to a file.
 """
 PLAY_STATES = ["paused", "playing", "following"]
 
@@ -120,10 +123,11 @@ def _stream(args: argparse.Namespace, name: str, scenario):
 
 def _summary(record) -> str:
     m = record.metrics
+    ret = f"{m['return']:.2f}" if "return" in m else "?"
+    done = {True: "success", False: "not finished"}.get(m.get("success"), "success ?")
     return (
         f"{record.scenario} ({record.n_cranes} cranes, {record.policy or 'policy ?'}, seed "
-        f"{record.seed}): return {m['return']:.2f}, {m['steps']} steps, "
-        f"{'success' if m['success'] else 'not finished'}"
+        f"{record.seed}): return {ret}, {m.get('steps', '?')} steps, {done}"
     )
 
 
@@ -171,9 +175,12 @@ def cmd_record(args: argparse.Namespace) -> int:
 @_guarded
 def cmd_replay(args: argparse.Namespace) -> int:
     from multicrane import viewer
-    from multicrane.record import EpisodeRecord
+    from multicrane.record import EpisodeRecord, RecordError
 
-    record = EpisodeRecord.load(args.record)
+    try:
+        record = EpisodeRecord.load(args.record)
+    except RecordError as exc:  # unreadable, changed or malformed: one line, status 1
+        return error(exc, status=1)
     if args.rrd:
         viewer.record_to_rrd(record, args.rrd, play_state=args.play_state)
         print(f"replay: {args.rrd}")

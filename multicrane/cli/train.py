@@ -116,6 +116,7 @@ def print_result(result: dict, run_dir: Path) -> None:
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", str(args.threads))
     from multicrane import ScenarioError
+    from multicrane.run_lock import RunLockedError
     from multicrane.training import ConfigError, train
 
     try:
@@ -123,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
         run_dir = args.out or Path("runs") / cfg.name
         bar = not args.no_progress and progress.enabled()
         result = train(cfg, run_dir, progress_bar=bar)
-    except (ConfigError, ScenarioError, ValueError) as exc:
+    except (ConfigError, ScenarioError, ValueError, RunLockedError) as exc:
         return error(exc)
     if result is None:
         print(f"interrupted: run the same command again to resume ({run_dir})")

@@ -3,7 +3,9 @@
 A run lives in a directory: ``config.json``; ``checkpoint/`` (model, environment copies,
 random-generator states, and the replay buffer for DQN), written atomically at update
 boundaries every ``checkpoint_every`` steps and when interrupted (SIGINT/SIGTERM, or
-``stop_at``); ``tb/`` (TensorBoard); and, once finished, ``model.zip`` and ``result.json``.
+``stop_at``; kept with the previous one and recovered on resume, see
+``multicrane.training.checkpoints``); ``tb/`` (TensorBoard); ``run.lock`` while a process
+trains it (``multicrane.run_lock``); and, once finished, ``model.zip`` and ``result.json``.
 
 Resuming loads the checkpoint and continues exactly where it stopped: the environment copies,
 the last observations and every random generator come back, so a run interrupted and
@@ -14,12 +16,8 @@ an environment step), where the state is whole.
 
 from __future__ import annotations
 
-import gzip
 import json
-import pickle
 import platform
-import random
-import shutil
 import signal
 import time
 from contextlib import contextmanager
@@ -34,8 +32,15 @@ from stable_baselines3.common.monitor import Monitor
 
 from multicrane.files import write_json_atomic
 from multicrane.rollout import evaluate, optimal_returns
+from multicrane.run_lock import RunLock
 from multicrane.training.algorithms import Algorithm, algorithm, hyperparameters, make_model
-from multicrane.training.config import CHECKPOINT, ConfigError, TrainConfig
+from multicrane.training.checkpoints import (
+    checkpoint_complete,
+    load_checkpoint,
+    remove_checkpoints,
+    save_checkpoint,
+)
+from multicrane.training.config import ConfigError, TrainConfig
 from multicrane.training.model_policy import model_policy
 from multicrane.training.seeding import evaluation_seeds
 from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
@@ -93,61 +98,7 @@ def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, opti
 # -- checkpoints -------------------------------------------------------------------------------
 
 
-def _rng_states(model) -> dict[str, Any]:
-    return {
-        "torch": th.get_rng_state(),
-        "numpy": np.random.get_state(),  # noqa: NPY002 (SB3 draws from the global generator)
-        "random": random.getstate(),
-        "action_space": model.action_space.np_random.bit_generator.state,
-    }
-
-
-def _set_rng_states(model, states: dict[str, Any]) -> None:
-    th.set_rng_state(states["torch"])
-    np.random.set_state(states["numpy"])  # noqa: NPY002
-    random.setstate(states["random"])
-    model.action_space.np_random.bit_generator.state = states["action_space"]
-
-
-def save_checkpoint(run_dir: Path, model, venv, progress: dict[str, Any]) -> None:
-    """Write ``checkpoint/`` atomically (into a new directory, then swap)."""
-    final = run_dir / CHECKPOINT
-    tmp = run_dir / (CHECKPOINT + ".tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir()
-    model.save(tmp / "model.zip")
-    if getattr(model, "replay_buffer", None) is not None:
-        with gzip.open(tmp / "replay_buffer.pkl.gz", "wb", compresslevel=1) as f:
-            pickle.dump(model.replay_buffer, f, protocol=pickle.HIGHEST_PROTOCOL)
-    state = {"venv": venv.get_state(), "rng": _rng_states(model), "progress": progress}
-    (tmp / "state.pkl").write_bytes(pickle.dumps(state))
-    (tmp / "steps.txt").write_text(f"{model.num_timesteps}\n")  # marks it complete
-    old = run_dir / (CHECKPOINT + ".old")
-    shutil.rmtree(old, ignore_errors=True)
-    if final.exists():
-        final.rename(old)
-    tmp.rename(final)
-    shutil.rmtree(old, ignore_errors=True)
-
-
-def checkpoint_complete(run_dir: Path) -> bool:
-    return (run_dir / CHECKPOINT / "steps.txt").is_file()
-
-
-def load_checkpoint(run_dir: Path, algo: Algorithm, venv):
-    """The model and progress saved in ``checkpoint/``, with environments and generators
-    restored to that moment."""
-    ckpt = run_dir / CHECKPOINT
-    # force_reset=False keeps the saved last observations: the copies continue, not restart.
-    model = algo.cls.load(ckpt / "model.zip", env=venv, device="cpu", force_reset=False)
-    state = pickle.loads((ckpt / "state.pkl").read_bytes())
-    venv.set_state(state["venv"])
-    buffer = ckpt / "replay_buffer.pkl.gz"
-    if buffer.exists():
-        with gzip.open(buffer, "rb") as f:
-            model.replay_buffer = pickle.load(f)
-    _set_rng_states(model, state["rng"])
-    return model, state["progress"]
+# save_checkpoint, load_checkpoint and recovery: multicrane.training.checkpoints
 
 
 # -- the run -----------------------------------------------------------------------------------
@@ -303,13 +254,23 @@ class Run:
     # -- training --------------------------------------------------------------------------
 
     def execute(self, progress_bar: bool = False, stop_at: int | None = None) -> dict | None:
-        """Train (or resume) to the budget; the result, or None when stopped early."""
+        """Train (or resume) to the budget; the result, or None when stopped early. Holds
+        the directory's lock throughout (``RunLockedError`` when another process has it)."""
+        with RunLock(self.dir, self.log):
+            return self._execute(progress_bar, stop_at)
+
+    def _execute(self, progress_bar: bool, stop_at: int | None) -> dict | None:
         done = self._claim_directory()
         if done is not None:
             return done
         th.set_num_threads(self.cfg.torch_threads)
         self.venv = make_vec_env(self.cfg, self.algo, self.params)
-        fresh = not checkpoint_complete(self.dir)
+        loaded = None
+        if checkpoint_complete(self.dir):  # a cut save or a corrupt checkpoint: see the log
+            loaded = load_checkpoint(self.dir, self.algo, self.venv, self.log)
+            if loaded is None:  # none readable: start over on fresh environment copies
+                self.venv = make_vec_env(self.cfg, self.algo, self.params)
+        fresh = loaded is None
         if fresh:
             self.model = make_model(
                 self.algo, self.venv, self.cfg.seed, self.params, str(self.dir / "tb")
@@ -322,7 +283,7 @@ class Run:
                 "sessions": 1,
             }
         else:
-            self.model, self.progress = load_checkpoint(self.dir, self.algo, self.venv)
+            self.model, self.progress = loaded
             self.progress["sessions"] += 1
             self.log(f"{self.cfg.name}: resuming at step {self.model.num_timesteps}")
         self._session_start = time.perf_counter()
@@ -375,7 +336,7 @@ class Run:
             "python": platform.python_version(),
         }
         write_json_atomic(self.dir / RESULT, result)
-        shutil.rmtree(self.dir / CHECKPOINT, ignore_errors=True)
+        remove_checkpoints(self.dir)
         self.venv.close()
         return result
 
