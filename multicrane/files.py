@@ -1,7 +1,9 @@
-"""Atomic file writes: a reader (or a crash) never sees half a file."""
+"""Safe file handling: atomic writes (a reader or a crash never sees half a file), and free
+names for setting a corrupt file aside."""
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
 from pathlib import Path
@@ -23,3 +25,16 @@ def write_atomic(path: str | Path, data: str | bytes) -> None:
 def write_json_atomic(path: str | Path, obj: Any, indent: int = 1) -> None:
     """``obj`` as JSON (sorted keys are the caller's choice), ending with a newline."""
     write_atomic(path, json.dumps(obj, indent=indent) + "\n")
+
+
+def aside_path(path: str | Path) -> Path:
+    """A free name beside ``path`` to move a corrupt file or folder to (``NAME.corrupt-STAMP``,
+    with ``-2``, ``-3`` ... when that is taken), so nothing is deleted."""
+    path = Path(path)
+    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+    candidate = path.with_name(f"{path.name}.corrupt-{stamp}")
+    n = 1
+    while candidate.exists():
+        n += 1
+        candidate = path.with_name(f"{path.name}.corrupt-{stamp}-{n}")
+    return candidate

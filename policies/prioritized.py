@@ -46,6 +46,8 @@ with 4).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from multicrane.carrier import Carrier
 from multicrane.reservations import goal_position, manhattan
 from multicrane.simulator import NOBODY, Simulator
@@ -155,24 +157,43 @@ class PrioritizedPlanner:
         idle = [c for c in range(sim.n_cranes) if not carrier.busy(c)]
         if not idle or not carrier.may_start(T):
             return
-        candidates = [c for c in sim.claimable_components() if c not in carrier.plans]
-        if not candidates:
-            return
-        pairs = ranked_pairs(sim, candidates, carrier.taken_targets(), self.rank, self._list_rank)
-        used_c: set[int] = set()
-        used_t: set[int] = set()
-        for _, comp, t in pairs:
-            if not idle or carrier.round_searches >= self.max_searches:
-                break
-            if comp in used_c or t in used_t:
-                continue
-            crane = next((k for k in idle if carrier.reaches_pair(k, comp, t)), NOBODY)
-            if crane == NOBODY:
-                continue
-            if carrier.try_start(crane, comp, t):
-                idle.remove(crane)
-                used_c.add(comp)
-                used_t.add(t)
+        assign_in_rank(
+            sim, carrier, idle, self.rank, self._list_rank, self.max_searches,
+            carrier.reaches_pair, carrier.try_start,
+        )  # fmt: skip
 
 
-__all__ = ["PrioritizedPlanner", "ranked_pairs"]
+def assign_in_rank(
+    sim: Simulator,
+    carrier: Carrier,
+    idle: list[int],
+    rank: str,
+    list_rank: dict[int, int],
+    max_searches: int,
+    eligible: Callable[[int, int, int], bool],
+    start: Callable[[int, int, int], bool],
+) -> None:
+    """The prioritized rule, shared by both decision levels: ready (component, target) pairs
+    best first; each goes to the first idle crane ``eligible(crane, comp, target)`` for it,
+    and ``start(crane, comp, target)`` (a space-time search) decides; each component, target
+    and crane is used once, and at most ``max_searches`` searches run in a round."""
+    candidates = [c for c in sim.claimable_components() if c not in carrier.plans]
+    if not candidates:
+        return
+    pairs = ranked_pairs(sim, candidates, carrier.taken_targets(), rank, list_rank)
+    used_c: set[int] = set()
+    used_t: set[int] = set()
+    for _, comp, t in pairs:
+        if not idle or carrier.round_searches >= max_searches:
+            break
+        if comp in used_c or t in used_t:
+            continue
+        crane = next((k for k in idle if eligible(k, comp, t)), NOBODY)
+        if crane == NOBODY:
+            continue
+        if start(crane, comp, t):
+            idle.remove(crane)
+            used_c.add(comp)
+            used_t.add(t)
+
+__all__ = ["PrioritizedPlanner", "assign_in_rank", "ranked_pairs"]

@@ -18,8 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from multicrane.simulator import NOBODY
-from policies.prioritized import check_rank, ranked_pairs
+from policies.prioritized import assign_in_rank, check_rank
 
 
 def _book(env):
@@ -53,27 +52,20 @@ class TaskPrioritized:
         idle = book.idle_cranes()
         if not idle or not carrier.may_start(T):
             return actions
-        candidates = [c for c in sim.claimable_components() if c not in carrier.plans]
-        if not candidates:
-            return actions
         allowed = book.allowed()
-        pairs = ranked_pairs(sim, candidates, carrier.taken_targets(), self.rank, self._list_rank)
-        used_c: set[int] = set()
-        used_t: set[int] = set()
-        for _, comp, t in pairs:
-            if not idle or carrier.round_searches >= self.max_searches:
-                break
-            if comp in used_c or t in used_t:
-                continue
-            p = book.tasks.index[(comp, t)]
-            crane = next((k for k in idle if allowed[k, p]), NOBODY)
-            if crane == NOBODY:
-                continue
-            if env.task_feasible(crane, p):
-                actions[agents[crane]] = 1 + p
-                idle.remove(crane)
-                used_c.add(comp)
-                used_t.add(t)
+        index = book.tasks.index
+
+        def start(crane: int, comp: int, target: int) -> bool:
+            p = index[(comp, target)]
+            if not env.task_feasible(crane, p):
+                return False
+            actions[agents[crane]] = 1 + p
+            return True
+
+        assign_in_rank(
+            sim, carrier, idle, self.rank, self._list_rank, self.max_searches,
+            lambda k, comp, target: bool(allowed[k, index[(comp, target)]]), start,
+        )  # fmt: skip
         return actions
 
 

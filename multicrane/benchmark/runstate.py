@@ -10,7 +10,6 @@ versions and wall time. Reading here never imports torch.
 
 from __future__ import annotations
 
-import datetime
 import json
 import math
 from collections.abc import Callable, Iterable
@@ -19,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from multicrane.benchmark.profiles import RunSpec, Sweep, jsonable
-from multicrane.files import write_atomic, write_json_atomic
+from multicrane.files import aside_path, write_atomic, write_json_atomic
 
 RESULT = "result.json"
 CONFIG = "config.json"
@@ -147,12 +146,12 @@ def prepare_run(spec: RunSpec, run_dir: Path, log: Callable[[str], None] = print
     if state.kind == CORRUPT:
         result_path = run_dir / RESULT
         if result_path.exists() and read_result(result_path)[1]:
-            aside = _aside(result_path)
+            aside = aside_path(result_path)
             result_path.rename(aside)
             log(f"{spec.name}: {state.detail}; moved it to {aside.name} and redo the run")
         state = inspect_run(spec, run_dir)
         if state.kind == CORRUPT:  # config.json
-            aside = _aside(run_dir)
+            aside = aside_path(run_dir)
             run_dir.rename(aside)
             log(f"{spec.name}: {state.detail}; moved the run directory to {aside}")
             state = inspect_run(spec, run_dir)
@@ -164,16 +163,6 @@ def prepare_run(spec: RunSpec, run_dir: Path, log: Callable[[str], None] = print
         (run_dir / ERROR).unlink(missing_ok=True)
         state = inspect_run(spec, run_dir)
     return state
-
-
-def _aside(path: Path) -> Path:
-    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
-    candidate = path.with_name(f"{path.name}.corrupt-{stamp}")
-    n = 1
-    while candidate.exists():
-        n += 1
-        candidate = path.with_name(f"{path.name}.corrupt-{stamp}-{n}")
-    return candidate
 
 
 def sweep_states(sweep: Sweep) -> dict[RunSpec, RunState]:

@@ -16,7 +16,6 @@ a message (the corrupt folder is kept). Nothing is dropped silently.
 
 from __future__ import annotations
 
-import datetime
 import gzip
 import pickle
 import random
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 import torch as th
 
+from multicrane.files import aside_path
 from multicrane.training.config import CHECKPOINT
 
 TMP, PREV, OLD = CHECKPOINT + ".tmp", CHECKPOINT + ".prev", CHECKPOINT + ".old"
@@ -136,7 +136,7 @@ def load_checkpoint(run_dir: Path, algo, venv, log: Callable[[str], None] = prin
         try:
             return _read(final, algo, venv)
         except Exception as exc:  # noqa: BLE001 (truncated pickle or zip: any error)
-            aside = _aside(final)
+            aside = aside_path(final)
             final.rename(aside)
             why = f"{type(exc).__name__}: {exc}"
             if steps_of(prev) is not None:
@@ -157,13 +157,3 @@ def remove_checkpoints(run_dir: Path) -> None:
     """A finished run needs no checkpoint: remove every checkpoint folder (not set-asides)."""
     for name in (CHECKPOINT, TMP, PREV, OLD):
         shutil.rmtree(run_dir / name, ignore_errors=True)
-
-
-def _aside(path: Path) -> Path:
-    stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
-    candidate = path.with_name(f"{path.name}.corrupt-{stamp}")
-    n = 1
-    while candidate.exists():
-        n += 1
-        candidate = path.with_name(f"{path.name}.corrupt-{stamp}-{n}")
-    return candidate
