@@ -207,3 +207,16 @@ def test_supersuit_observation_wrappers_take_the_flat_observation():
     for _ in range(5):
         obs, *_ = env.step({a: 6 for a in env.agents})
         assert env.observation_space("crane_0").contains(obs["crane_0"])
+
+
+def test_supersuit_frame_skip_uses_np_random():
+    ss = pytest.importorskip("supersuit")
+    env = ss.frame_skip_v0(multicrane.parallel_env("e3s2", obs_format="flat"), 2)
+    env.reset(seed=0)
+    _, rewards, *_ = env.step({a: 6 for a in env.agents})
+    assert rewards["crane_0"] < 0  # two waiting steps' costs
+    aec = ss.frame_skip_v0(multicrane.env("e3s2", obs_format="flat"), 2)
+    aec.reset(seed=0)
+    for _agent in aec.agent_iter(6):
+        _, _, term, trunc, _ = aec.last()
+        aec.step(None if term or trunc else 6)
