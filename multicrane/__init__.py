@@ -55,10 +55,15 @@ def _register() -> None:
     for config in PAPER_CONFIGS:
         env_id = paper_env_id(config)
         if env_id not in gymnasium.registry:
+            # No OrderEnforcing / PassiveEnvChecker wrappers (the env checks its own call
+            # order and actions): ``gymnasium.make(id).action_masks()`` then works as it is,
+            # for MaskablePPO and other callers, without ``.unwrapped``.
             gymnasium.register(
                 env_id,
                 entry_point="multicrane.paper_env:PaperAssemblyEnv",
                 kwargs={"config": config},
+                order_enforce=False,
+                disable_env_checker=True,
             )
 
 

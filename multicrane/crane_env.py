@@ -11,6 +11,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from multicrane import reward as reward_rules
+from multicrane.env_infos import TaskStepFacts, crane_infos
 from multicrane.observation import Observer
 from multicrane.render import render_ansi
 from multicrane.scenario import Scenario
@@ -30,6 +31,8 @@ from multicrane.validation import (
 ENV_VERSION = 0
 DECISIONS = ("motion", "task")
 REWARDS = ("paper", "makespan")
+REWARD_MODES = ("team", "split")
+OBS_FORMATS = ("dict", "flat")
 _INITIAL = int(Status.INITIAL)
 
 
@@ -71,7 +74,9 @@ class MultiCraneEnv(ParallelEnv):
     ``infos`` add ``elapsed`` (simulated steps), ``task_events`` and ``crane_steps``;
     ``env.task_feasible(crane, p)`` runs the search for a planner. See ``docs/task-mode.md``.
 
-    **Observation.** ``{"observation": float32 vector in [0, 1], "action_mask": int8 vector}``.
+    **Observation.** ``{"observation": float32 vector in [0, 1], "action_mask": int8 vector}``;
+    with ``obs_format="flat"`` only the vector (a ``Box``; the mask then comes from
+    ``action_masks()`` and, by default in that format, ``infos[agent]["action_mask"]``).
     The vector is the site as (X, Y, 9) height planes, a (C, 14) component table and a 9-value
     crane vector; see ``multicrane.observation`` and ``env.observation_layout.split(obs)``.
     Its shape is fixed for a scenario. The mask always allows ``wait``.
@@ -84,18 +89,33 @@ class MultiCraneEnv(ParallelEnv):
     paper's reward (``reward="paper"``, the default). ``reward="makespan"``: ``-1`` per
     simulated step for the team, plus ``completion`` on the finishing step (so the return is
     ``completion - makespan``). In task mode the reward of a step is the sum over the
-    simulated steps it advanced. ``infos[agent]`` holds ``events`` (this crane's ``Event`` tuples),
-    ``reward_term`` (its share; the shares add up to the team reward) and ``action_mask``.
+    simulated steps it advanced. ``reward_mode="team"`` (default) gives every crane the team
+    reward; ``"split"`` gives each crane its share ``reward_term`` (the shares add up to the
+    team reward, so a sum over cranes, as RLlib and SB3's monitors take, is the team return).
+
+    **Infos** (``multicrane.env_infos``): numbers only, the same keys at reset and every
+    step: ``event_counts`` (this crane's events per ``EventType``), ``reward_term`` and, at
+    the task level, ``task_event_counts``, ``elapsed`` and ``crane_steps``. ``info_events=True``
+    adds the readable ``events`` (``Event`` tuples) and ``task_events``; ``info_mask=True``
+    adds ``action_mask``. ``env.last_events`` always holds the last step's events per crane.
+
+    **Global state** (centralised critics): ``state()`` is every crane's observation vector
+    concatenated in crane order, ``state_space`` a ``Box(0, 1, (N * D,), float32)``.
 
     **Termination / truncation.** Terminated when every component is assembled; truncated at
     the step limit (the scenario's, or ``max_steps``) if not terminated. The clock is the
     simulator's step count in both decision levels (step limit, makespan, metrics).
+    ``max_cycles`` (PettingZoo's name) also truncates after that many ``step`` calls.
 
     **Arguments.** ``scenario`` (shipped name like ``"e3s2"``, a path, or a ``Scenario``),
     ``n_cranes`` (default: the scenario's), ``auto`` (False), ``strict`` (False),
-    ``max_steps`` (default: the scenario's ``step_limit``), ``render_mode`` (None or
-    ``"ansi"``), ``decisions`` (``"motion"`` or ``"task"``), ``reward`` (``"paper"`` or
-    ``"makespan"``), ``task_patience`` (20), ``task_site_planes`` (False).
+    ``max_steps`` (default: the scenario's ``step_limit``), ``max_cycles`` (None),
+    ``render_mode`` (None, ``"ansi"`` or ``"human"``: the live rerun viewer of
+    ``multicrane.live_view``, needs the ``replay`` extra), ``decisions`` (``"motion"`` or
+    ``"task"``), ``reward`` (``"paper"`` or ``"makespan"``), ``reward_mode`` (``"team"`` or
+    ``"split"``), ``obs_format`` (``"dict"`` or ``"flat"``), ``info_events`` (False),
+    ``info_mask`` (default: True for ``"flat"``, else False), ``task_patience`` (20),
+    ``task_site_planes`` (False).
 
     **Version history.** v0: first release.
 
@@ -104,7 +124,8 @@ class MultiCraneEnv(ParallelEnv):
 
     metadata = {
         "name": f"multicrane_v{ENV_VERSION}",
-        "render_modes": ["ansi"],
+        "render_modes": ["ansi", "human"],
+        "render_fps": 4,
         "is_parallelizable": True,
     }
 
@@ -120,9 +141,25 @@ class MultiCraneEnv(ParallelEnv):
         reward: str = "paper",
         task_patience: int = 20,
         task_site_planes: bool = False,
+        max_cycles: int | None = None,
+        reward_mode: str = "team",
+        obs_format: str = "dict",
+        info_events: bool = False,
+        info_mask: bool | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or 'ansi', got {render_mode!r}")
+            raise ValueError(f"render_mode must be None, 'ansi' or 'human', got {render_mode!r}")
+        if reward_mode not in REWARD_MODES:
+            raise ValueError(f"reward_mode must be one of {REWARD_MODES}, got {reward_mode!r}")
+        if obs_format not in OBS_FORMATS:
+            raise ValueError(f"obs_format must be one of {OBS_FORMATS}, got {obs_format!r}")
+        self.reward_mode = reward_mode
+        self.obs_format = obs_format
+        self.info_events = bool(info_events)
+        self.info_mask = obs_format == "flat" if info_mask is None else bool(info_mask)
+        self.max_cycles = as_integer(max_cycles, "max_cycles") if max_cycles is not None else None
+        if self.max_cycles is not None and self.max_cycles < 1:
+            raise ValueError(f"max_cycles must be at least 1, got {max_cycles!r}")
         if decisions not in DECISIONS:
             raise ValueError(f"decisions must be one of {DECISIONS}, got {decisions!r}")
         if reward not in REWARDS:
@@ -154,19 +191,26 @@ class MultiCraneEnv(ParallelEnv):
         n_actions = self.sim.site.n_actions if self.task_mode is None else self.task_mode.n_actions
         self.n_actions = n_actions
         self._action_space = spaces.Discrete(n_actions)
-        self._observation_space = spaces.Dict(
-            {
-                "observation": spaces.Box(0.0, 1.0, (self.observer.layout.size,), np.float32),
-                "action_mask": spaces.Box(0, 1, (n_actions,), np.int8),
-            }
+        vector = spaces.Box(0.0, 1.0, (self.observer.layout.size,), np.float32)
+        self._observation_space = (
+            vector
+            if obs_format == "flat"
+            else spaces.Dict(
+                {"observation": vector, "action_mask": spaces.Box(0, 1, (n_actions,), np.int8)}
+            )
         )
+        self.state_space = spaces.Box(0.0, 1.0, (n * self.observer.layout.size,), np.float32)
+        self._state = np.zeros(self.state_space.shape, dtype=np.float32)
+        self.last_events: list[tuple[Event, ...]] = [() for _ in range(n)]
+        self.cycles = 0
+        self._human = None
         self._rng: np.random.Generator | None = None
         self._masks: list[np.ndarray] = []  # the env's own; callers get copies (_shown)
         self._shown: list[np.ndarray] = []
 
     # -- spaces ------------------------------------------------------------------------------
 
-    def observation_space(self, agent: str) -> spaces.Dict:
+    def observation_space(self, agent: str) -> spaces.Dict | spaces.Box:
         return self._observation_space
 
     def action_space(self, agent: str) -> spaces.Discrete:
@@ -174,9 +218,17 @@ class MultiCraneEnv(ParallelEnv):
 
     # -- episode -----------------------------------------------------------------------------
 
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The episode's generator (PettingZoo's ``np_random``; reseeded by ``reset(seed)``)."""
+        if self._rng is None:
+            self._rng = np.random.default_rng()
+        return self._rng
+
     def reset(self, seed: int | None = None, options: dict | None = None):
         if seed is not None or self._rng is None:
             self._rng = np.random.default_rng(seed)
+        self.cycles = 0
         self.sim.reset(self._rng)
         self.observer.reset(self.step_limit)
         self.agents = list(self.possible_agents)
@@ -184,42 +236,63 @@ class MultiCraneEnv(ParallelEnv):
         if self.task_mode is not None:
             self.task_mode.reset()
         observations = self._observe()
-        infos = {
-            a: {"events": (), "reward_term": 0.0, "action_mask": self._shown[i]}
-            for i, a in enumerate(self.possible_agents)
-        }
+        n = self.sim.n_cranes
+        self.last_events = [() for _ in range(n)]
+        task = None
+        if self.task_mode is not None:
+            task = TaskStepFacts([() for _ in range(n)], 0, 0)
+        infos = self._infos([0.0] * n, task)
+        if self.render_mode == "human":
+            self._human_view().reset(self)
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode: call reset() first")
         joint = self._joint_action(actions)
-        if self.task_mode is not None:
-            return self.task_mode.step(joint)
         n = self.sim.n_cranes
-        out, r, terms, _ = self._physical_step(joint)
+        task = None
+        if self.task_mode is not None:
+            r, terms, per_crane, task = self.task_mode.step(joint)
+        else:
+            out, r, terms, _ = self._physical_step(joint)
+            lists: list[list[Event]] = [[] for _ in range(n)]
+            for e in out.events:
+                lists[e.crane].append(e)
+            per_crane = [tuple(x) for x in lists]
+        self.cycles += 1
+        self.last_events = per_crane
         complete = self.sim.done
         self.total_reward += r
-        truncated = not complete and self.sim.state.step_count >= self.step_limit
+        truncated = not complete and (
+            self.sim.state.step_count >= self.step_limit
+            or (self.max_cycles is not None and self.cycles >= self.max_cycles)
+        )
         observations = self._observe()
-        per_crane: list[list[Event]] = [[] for _ in range(n)]
-        for e in out.events:
-            per_crane[e.crane].append(e)
         agents = self.possible_agents
-        rewards = dict.fromkeys(agents, r)
+        if self.reward_mode == "team":
+            rewards = dict.fromkeys(agents, r)
+        else:
+            rewards = {a: float(terms[i]) for i, a in enumerate(agents)}
         terminations = dict.fromkeys(agents, complete)
         truncations = dict.fromkeys(agents, truncated)
-        infos = {
-            a: {
-                "events": tuple(per_crane[i]),
-                "reward_term": terms[i],
-                "action_mask": self._shown[i],
-            }
-            for i, a in enumerate(agents)
-        }
+        infos = self._infos(terms, task)
         if complete or truncated:
             self.agents = []
+        if self.render_mode == "human":
+            self._human_view().step(self, r)
         return observations, rewards, terminations, truncations, infos
+
+    def _infos(self, terms, task: TaskStepFacts | None) -> dict[str, dict[str, Any]]:
+        return crane_infos(
+            self.possible_agents,
+            self.last_events,
+            terms,
+            self._shown,
+            events=self.info_events,
+            mask=self.info_mask,
+            task=task,
+        )
 
     def _physical_step(self, joint: list[int]):
         """One simulated step with one motion action per crane (the crane order drawn from
@@ -247,15 +320,22 @@ class MultiCraneEnv(ParallelEnv):
             joint.append(a)
         return joint
 
-    def _observe(self) -> dict[str, dict[str, np.ndarray]]:
+    def _observe(self) -> dict[str, Any]:
         if self.task_mode is not None:
             obs = self.task_mode.observe()
             self._masks = list(self.observer.masks)
-            self._shown = handed_out(self._masks)
-            return {
-                a: {"observation": obs[i], "action_mask": self._shown[i]}
-                for i, a in enumerate(self.possible_agents)
-            }
+        else:
+            obs = self._motion_observations()
+        self._shown = handed_out(self._masks)
+        np.concatenate(obs, out=self._state)
+        if self.obs_format == "flat":
+            return dict(zip(self.possible_agents, obs, strict=True))
+        return {
+            a: {"observation": obs[i], "action_mask": self._shown[i]}
+            for i, a in enumerate(self.possible_agents)
+        }
+
+    def _motion_observations(self) -> list[np.ndarray]:
         sim = self.sim
         claimable = sim.claimable_components()
         if self.auto:
@@ -265,11 +345,7 @@ class MultiCraneEnv(ParallelEnv):
             ready = claimable
         self.observer.update(sim.take_changed(), ready)
         self._masks = list(sim.action_masks())
-        self._shown = handed_out(self._masks)
-        return {
-            a: {"observation": self.observer.observe(i), "action_mask": self._shown[i]}
-            for i, a in enumerate(self.possible_agents)
-        }
+        return [self.observer.observe(i) for i in range(sim.n_cranes)]
 
     # -- extras --------------------------------------------------------------------------------
 
@@ -287,18 +363,29 @@ class MultiCraneEnv(ParallelEnv):
         return {a: m.copy() for a, m in zip(self.possible_agents, self._masks, strict=True)}
 
     def state(self) -> np.ndarray:
-        """The global state: the occupancy grid (padded; see ``multicrane.site``)."""
+        """The global state (``state_space``): every crane's observation vector, concatenated
+        in crane order; it holds the site planes, the component table and every crane's own
+        features, for a centralised critic."""
         require_reset(bool(self._masks), "state")
-        return self.sim.state.occ.reshape(self.sim.site.shape).copy()
+        return self._state.copy()
 
     def render(self) -> str | None:
         require_reset(bool(self._masks), "render")
         if self.render_mode == "ansi":
             return render_ansi(self.sim)
-        return None
+        return None  # "human": every reset and step is already streamed to the viewer
+
+    def _human_view(self):
+        if self._human is None:
+            from multicrane.live_view import LiveView
+
+            self._human = LiveView()
+        return self._human
 
     def close(self) -> None:
-        pass
+        if self._human is not None:
+            self._human.close()
+            self._human = None
 
 
 MultiCraneEnv.__doc__ += "\n" + indent(table_text(), "    ") + "\n"

@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from multicrane.env_infos import event_counts
 from multicrane.observation import (
     ANY_TARGET,
     AT_TARGET,
@@ -96,10 +97,16 @@ class PaperAssemblyEnv(gym.Env):
     all six would be, or during the pass-over step, all are allowed); when False they allow
     all six, so the default MDP stays the paper's. ``render_mode``: None or ``"ansi"``.
 
+    **Infos.** Numbers only by default (every batching library takes them): ``event_counts``
+    (per ``EventType``, see ``multicrane.env_infos``), ``component_index`` (the current
+    component's scenario index, -1 when none) and, on the last step, ``is_success``.
+    ``info_events=True`` adds ``events`` (``Event`` tuples) and ``component`` (its id or None);
+    ``info_mask=True`` adds ``action_mask``. ``env.last_events`` keeps the last step's events.
+
     **Version history.** v0: the corrected environment of ``docs/paper-spec.md`` section 7.
     """
 
-    metadata = {"render_modes": ["ansi"]}
+    metadata = {"render_modes": ["ansi"], "render_fps": 4}
 
     def __init__(
         self,
@@ -107,6 +114,8 @@ class PaperAssemblyEnv(gym.Env):
         scenario: str | Scenario | None = None,
         mask_blocked_moves: bool = False,
         render_mode: str | None = None,
+        info_events: bool = False,
+        info_mask: bool = False,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             # Gymnasium's convention: warn, do not fail (SB3's make_vec_env asks for
@@ -121,6 +130,9 @@ class PaperAssemblyEnv(gym.Env):
         self.sim = Simulator(self.scenario, n_cranes=1, auto=True)
         self.observer = Observer(self.sim, PAPER_PLANES)
         self.mask_blocked_moves = mask_blocked_moves
+        self.info_events = bool(info_events)
+        self.info_mask = bool(info_mask)
+        self.last_events: tuple = ()
         self.render_mode = render_mode
         X, Y, H = self.scenario.size
         self.plan_shape = (X, Y, N_PAPER_CHANNELS)
@@ -161,12 +173,18 @@ class PaperAssemblyEnv(gym.Env):
         return obs.reshape(-1)
 
     def _info(self, events) -> dict[str, Any]:
-        comp = self.sim.state.held[0]
-        return {
-            "events": tuple(events),
-            "component": self.scenario.components[comp].id if comp != NOBODY else None,
-            "action_mask": self.action_masks(),
+        comp = int(self.sim.state.held[0])
+        self.last_events = tuple(events)
+        info: dict[str, Any] = {
+            "event_counts": event_counts(self.last_events),
+            "component_index": comp if comp != NOBODY else -1,
         }
+        if self.info_events:
+            info["events"] = self.last_events
+            info["component"] = self.scenario.components[comp].id if comp != NOBODY else None
+        if self.info_mask:
+            info["action_mask"] = self.action_masks()
+        return info
 
     def action_masks(self) -> np.ndarray:
         """Moves that would not be blocked (with ``mask_blocked_moves``); else all six."""

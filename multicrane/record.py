@@ -171,10 +171,11 @@ class EpisodeRecord:
 
 
 def _events_of(env: MultiCraneEnv, infos: dict) -> list[EventRow]:
+    """The step's events, read from the environment (its infos hold only counts)."""
     return [
         (e.type.name, int(e.crane), int(e.component))
-        for a in env.possible_agents
-        for e in infos[a]["events"]
+        for crane_events in env.unwrapped.last_events
+        for e in crane_events
     ]
 
 

@@ -169,8 +169,8 @@ def _multi_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]
             tally.busy += sum(
                 1 for i in range(n) if held_before[i] or sim.state.held[i] != NOBODY
             )
-        for a in agents:
-            tally.count(infos[a]["events"])
+        for crane_events in base.last_events:
+            tally.count(crane_events)
         if record or on_step is not None:
             joint = [int(actions[a]) for a in agents]
             if record:
@@ -201,7 +201,7 @@ def _single_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any
         tally.steps += 1
         tally.total += reward
         tally.busy += 1 if held_before or sim.state.held[0] != NOBODY else 0
-        tally.count(info["events"])
+        tally.count(base.last_events)
         if record:
             tally.actions.append(int(action))
         if on_step is not None:

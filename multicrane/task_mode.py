@@ -9,18 +9,17 @@ a step some idle crane has an allowed task, or (c) the building is complete or t
 limit truncates. At least one simulated step passes, so "wait" waits one step at least.
 
 The simulator's step count is the clock: the step limit, the makespan and the metrics count
-simulated steps. The reward is the sum over the elapsed steps. ``infos[agent]`` holds
-``events`` (the crane's physical events of every elapsed step), ``task_events`` (the task
-events, see ``multicrane.tasks``), ``elapsed`` (simulated steps of this env step),
-``crane_steps`` (crane x step pairs in which some crane was busy, for the metrics),
-``reward_term`` and ``action_mask``. ``trace`` keeps the episode's physical joint actions,
-their events and paper rewards, so a record can replay it in the motion mode.
+simulated steps. The reward is the sum over the elapsed steps. The infos
+(``multicrane.env_infos``) count the crane's physical events of every elapsed step and its
+task events (``multicrane.tasks``), and give ``elapsed`` (simulated steps of this env step)
+and ``crane_steps`` (crane x step pairs in which some crane was busy, for the metrics).
+``trace`` keeps the episode's physical joint actions, their events and paper rewards, so a
+record can replay it in the motion mode.
 """
 
 from __future__ import annotations
 
-from typing import Any
-
+from multicrane.env_infos import TaskStepFacts
 from multicrane.simulator import NOBODY
 from multicrane.task_observation import TaskObserver
 from multicrane.tasks import TaskBook, TaskEvent
@@ -56,6 +55,8 @@ class TaskMode:
         return self.book.feasible(crane, p)
 
     def step(self, joint: list[int]):
+        """Advance until the next decision: ``(team reward, reward terms, events per crane,
+        task facts for the infos)``; the environment finishes the step (``MultiCraneEnv``)."""
         env, sim, book = self.env, self.env.sim, self.book
         n = sim.n_cranes
         self.decisions.append(list(joint))
@@ -85,26 +86,7 @@ class TaskMode:
             truncated = not complete and sim.state.step_count >= env.step_limit
             if complete or truncated or freed or book.any_open():
                 break
-        env.total_reward += total
-        observations = env._observe()
-        agents = env.possible_agents
-        infos: dict[str, Any] = {
-            a: {
-                "events": tuple(per_crane[i]),
-                "task_events": tuple(e for e in task_events if e[1] == i),
-                "elapsed": elapsed,
-                "crane_steps": busy,
-                "reward_term": terms_sum[i],
-                "action_mask": env._shown[i],
-            }
-            for i, a in enumerate(agents)
-        }
-        if complete or truncated:
-            env.agents = []
-        return (
-            observations,
-            dict.fromkeys(agents, total),
-            dict.fromkeys(agents, complete),
-            dict.fromkeys(agents, truncated),
-            infos,
+        facts = TaskStepFacts(
+            [tuple(e for e in task_events if e[1] == i) for i in range(n)], elapsed, busy
         )
+        return total, terms_sum, [tuple(p) for p in per_crane], facts

@@ -52,3 +52,18 @@ def scenarios() -> list[str]:
 def masked_actions():
     """The ``random_masked_actions`` helper."""
     return random_masked_actions
+
+
+# The readable infos (events and masks) that these tests assert on; libraries get numbers only
+# by default (multicrane.env_infos).
+READABLE = {"info_events": True, "info_mask": True}
+
+
+def readable_env(*args, **options):
+    """``multicrane.parallel_env`` with the readable ``events`` and ``action_mask`` in infos."""
+    return multicrane.parallel_env(*args, **READABLE, **options)
+
+
+def readable_paper_env(*args, **options):
+    """``PaperAssemblyEnv`` with the readable ``events``, ``component`` and ``action_mask``."""
+    return multicrane.PaperAssemblyEnv(*args, **READABLE, **options)

@@ -60,7 +60,7 @@ def test_max_steps_must_be_an_integer():
 
 
 def test_strict_mode_checks_its_own_mask():
-    env = multicrane.parallel_env("e2s2", n_cranes=1, strict=True)
+    env = multicrane.parallel_env("e2s2", n_cranes=1, strict=True, info_mask=True)
     obs, infos = env.reset(seed=0)
     mask = obs["crane_0"]["action_mask"]
     illegal = int(np.flatnonzero(mask == 0)[0])

@@ -145,7 +145,7 @@ def run_scenario_case(name: str, raw: bytes) -> str:
         scenario = parse_scenario(raw, source=f"mutated-{name}.toml")
     except ScenarioError:
         return "refused"
-    env = multicrane.parallel_env(scenario)
+    env = multicrane.parallel_env(scenario, info_events=True, info_mask=True)  # Checker reads them
     rng = np.random.default_rng(0)
     try:
         obs, infos = env.reset(seed=0)

@@ -28,9 +28,8 @@ from collections import Counter
 
 import numpy as np
 import pytest
-from conftest import SCENARIOS, random_masked_actions, reach_skip
+from conftest import SCENARIOS, random_masked_actions, reach_skip, readable_env
 
-import multicrane
 from multicrane.observation import Observer
 from multicrane.simulator import FREE, NOBODY, WALL
 from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, EventType, Status
@@ -441,7 +440,7 @@ def _manhattan(sim, a, b):
 def play(name, steps, n_cranes=None, auto=False, seed=0, guided=False, fresh_every=100):
     """Play ``steps`` joint steps, checking every one; every ``fresh_every`` steps (and at
     every reset) the observations are also compared with ones built from scratch."""
-    env = multicrane.parallel_env(name, n_cranes=n_cranes, auto=auto)
+    env = readable_env(name, n_cranes=n_cranes, auto=auto)
     rng = np.random.default_rng(seed)
     obs, infos = env.reset(seed=seed)
     checker = Checker(env)
@@ -518,7 +517,7 @@ def test_guided_play_finishes_buildings():
 
 def test_checker_catches_a_corrupted_grid():
     """The checks are not vacuous: a stray component cell or a lost wall is caught."""
-    env = multicrane.parallel_env("e2s2")
+    env = readable_env("e2s2")
     obs, infos = env.reset(seed=0)
     checker = Checker(env)
     checker.reset(obs, infos)

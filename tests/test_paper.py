@@ -32,6 +32,7 @@ import warnings
 import gymnasium
 import numpy as np
 import pytest
+from conftest import READABLE, readable_paper_env  # noqa: E402
 from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
@@ -45,6 +46,11 @@ from multicrane.simulator import NOBODY
 from multicrane.types import EventType, Kind, Status
 from policies.paper_greedy import PaperGreedyPolicy
 from policies.random_policy import RandomPolicy
+
+
+def readable_multi(*args, **options):
+    return MultiCraneEnv(*args, **READABLE, **options)
+
 
 FIXED_START = [c for c in PAPER_CONFIGS if c[-1] in "24"]  # S2, S4: fixed initial poses
 RANDOM_START = [c for c in PAPER_CONFIGS if c[-1] in "13"]  # S1, S3: drawn at reset
@@ -106,7 +112,7 @@ def _checked(fn, env) -> list[str]:
 @pytest.mark.parametrize("mask", [False, True])
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
 def test_gymnasium_check_env(config, mask):
-    env = gymnasium.make(paper_env_id(config), mask_blocked_moves=mask)
+    env = gymnasium.make(paper_env_id(config), mask_blocked_moves=mask, **READABLE)
     messages = _checked(gym_check_env, env.unwrapped)
     # The only acceptable complaint: no render fps declared (ansi rendering needs none).
     assert all("render" in m for m in messages), messages
@@ -128,7 +134,9 @@ def test_sb3_check_env():
 
     for config in PAPER_CONFIGS:
         for mask in (False, True):
-            env = gymnasium.make(paper_env_id(config), mask_blocked_moves=mask).unwrapped
+            env = gymnasium.make(
+                paper_env_id(config), mask_blocked_moves=mask, **READABLE
+            ).unwrapped
             messages = _checked(functools.partial(sb3_check_env, warn=True), env)
             assert messages == [], (config, mask, messages)
 
@@ -185,7 +193,7 @@ def test_every_configuration_is_registered():
 
 
 def test_gymnasium_make_runs_an_optimal_episode_through_the_wrappers():
-    env = gymnasium.make("multicrane/PaperAssembly-E2S2-v0")
+    env = gymnasium.make("multicrane/PaperAssembly-E2S2-v0", **READABLE)
     assert isinstance(env.unwrapped, PaperAssemblyEnv)
     assert env.unwrapped.config == "E2S2"
     assert env.action_space == spaces.Discrete(6)
@@ -270,7 +278,7 @@ def test_golden_planner_returns(config):
 
 @pytest.mark.parametrize("config", ["E1S2", "E1S3", "E1S4"])
 def test_golden_prebuilt_column_position(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     col2 = env.scenario.index_of("2")
     for seed, (x, y) in enumerate(GOLDEN_PREBUILT):
         env.reset(seed=seed)
@@ -281,7 +289,7 @@ def test_golden_e2s2_optimal_episode():
     p = cached_plan("E2S2", 0)
     assert p.actions == GOLDEN_E2S2_ACTIONS
     assert p.targets == (("1", "1"), ("2", "2"), ("3", "3"))
-    env = PaperAssemblyEnv("E2S2")
+    env = readable_paper_env("E2S2")
     env.reset(seed=0)
     rewards, assembled = [], {}
     for step, a in enumerate(GOLDEN_E2S2_ACTIONS, start=1):
@@ -301,7 +309,7 @@ def test_golden_e2s2_optimal_episode():
 
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
 def test_plan_replays_to_its_return(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     for seed in range(5):
         p = cached_plan(config, seed)
         assert p.success and p.steps == len(p.actions)
@@ -347,7 +355,7 @@ def _noisy_greedy_chooser(env: PaperAssemblyEnv, seed: int, eps: float = 0.2):
 
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
 def test_no_policy_beats_the_planner(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     for seed in range(100, 115):
         best = cached_plan(config, seed).episode_return
         for name, choose in (
@@ -361,7 +369,7 @@ def test_no_policy_beats_the_planner(config):
 
 @pytest.mark.parametrize("config", FIXED_START)
 def test_greedy_finishes_fixed_starts(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     for seed in range(10):
         ret, terminated, truncated, steps = play(env, seed, _greedy_chooser(env))
         assert terminated and not truncated, (config, seed)
@@ -376,8 +384,8 @@ def test_greedy_finishes_fixed_starts(config):
 
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
 def test_single_agent_agrees_with_multi_agent_auto(config):
-    g = PaperAssemblyEnv(config)
-    m = MultiCraneEnv(config.lower(), n_cranes=1, auto=True)
+    g = readable_paper_env(config)
+    m = readable_multi(config.lower(), n_cranes=1, auto=True)
     assert m.step_limit == g.scenario.step_limit == STEP_LIMIT[config[1]]
     for seed in range(10):
         rng = np.random.default_rng(1000 + seed)
@@ -413,8 +421,8 @@ def test_single_agent_agrees_with_multi_agent_auto(config):
 
 @pytest.mark.parametrize("config", RANDOM_START)
 def test_unseeded_resets_agree_with_multi_agent_auto(config):
-    g = PaperAssemblyEnv(config)
-    m = MultiCraneEnv(config.lower(), n_cranes=1, auto=True)
+    g = readable_paper_env(config)
+    m = readable_multi(config.lower(), n_cranes=1, auto=True)
     g.reset(seed=7)
     m.reset(seed=7)
     for _ in range(5):
@@ -496,14 +504,14 @@ def _observe_episode(env, seed, actions):
 
 @pytest.mark.parametrize(("config", "seed"), [("E1S2", 0), ("E1S2", 1), ("E3S4", 0), ("E4S4", 0)])
 def test_observation_random_play(config, seed):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     rng = np.random.default_rng(seed)
     _observe_episode(env, seed, [int(a) for a in rng.integers(6, size=300)])
 
 
 @pytest.mark.parametrize(("config", "seed"), [("E2S2", 0), ("E1S1", 0), ("E1S3", 2)])
 def test_observation_along_the_plan(config, seed):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     refs = _observe_episode(env, seed, cached_plan(config, seed).actions)
     assert env.sim.done
     assert max(r[:, :, 5].max() for r in refs) >= 1  # channel 5 carried k > 0
@@ -513,7 +521,7 @@ def test_observation_along_the_plan(config, seed):
 @pytest.mark.parametrize("config", ["E3S2", "E4S2"])
 def test_observation_plan_then_random(config):
     # The first half of the plan (several arrivals, k > 0), then random moves.
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     actions = list(cached_plan(config, 0).actions)
     rng = np.random.default_rng(3)
     actions = actions[: len(actions) // 2] + [int(a) for a in rng.integers(6, size=150)]
@@ -524,7 +532,7 @@ def test_observation_plan_then_random(config):
 def test_observation_past_the_move_limit():
     # E2S2: lift column 2 upwards, then shuttle it along x: channel 4 lights up on the step of
     # its 16th move (m > 15) and the reward turns to -2 on that very step.
-    env = PaperAssemblyEnv("E2S2")
+    env = readable_paper_env("E2S2")
     obs, _ = env.reset(seed=0)
     col2 = env.scenario.index_of("2")
     actions = [UP] + [X_PLUS, X_MINUS] * 12
@@ -554,7 +562,7 @@ def test_observation_past_the_move_limit():
 def test_observation_shows_obstacles_and_free_target_next_to_prebuilt():
     # Spec §7.2 and §7.6: S4 obstacles are visible in channel 1; in Env1 the free column
     # target next to the pre-built column is visible in channels 0 and 3.
-    env = PaperAssemblyEnv("E1S4")
+    env = readable_paper_env("E1S4")
     obs, _ = env.reset(seed=0)  # pre-built on (9, 13): (9, 9) is the free target
     o = obs.reshape(15, 15, 6)
     assert o[1, 6, 1] == 6 and o[6, 14, 1] == 6 and o[9, 6, 1] == 4 and o[14, 7, 1] == 4
@@ -585,7 +593,7 @@ def expected_pickup(spec, initial) -> list[tuple[int, int, int]]:
 
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
 def test_first_action_lifts_and_moves(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     for seed in range(3):
         _, info = env.reset(seed=seed)
         comp_id = FIRST_COMPONENT[config[1]]
@@ -605,7 +613,7 @@ def test_first_action_lifts_and_moves(config):
 def test_first_move_down_uses_the_freed_yard_cell():
     # Spec §5.3: the cells a component lay on are free at once; a lifted column may go
     # straight down into its old node-1 cell.
-    env = PaperAssemblyEnv("E2S2")
+    env = readable_paper_env("E2S2")
     env.reset(seed=0)
     col2 = env.scenario.index_of("2")
     env.step(DOWN)
@@ -617,7 +625,7 @@ def test_pass_over_after_column_3():
     # Env1: once column 3 arrives, the next step is the pre-built column's pass-over: the
     # action is ignored, nothing moves, it pays N = 2, and it happens exactly once.
     p = cached_plan("E1S1", 0)
-    env = PaperAssemblyEnv("E1S1", mask_blocked_moves=True)
+    env = readable_paper_env("E1S1", mask_blocked_moves=True)
     env.reset(seed=0)
     col3 = env.scenario.index_of("3")
     infos, rewards = [], []
@@ -653,7 +661,7 @@ def test_pass_over_after_column_3():
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
 def test_truncation_at_the_step_limit(config):
     limit = STEP_LIMIT[config[1]]
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     env.reset(seed=5)
     rng = np.random.default_rng(5)
     for step in range(1, limit + 1):
@@ -667,7 +675,7 @@ def test_truncation_at_the_step_limit(config):
 def test_finishing_on_the_last_allowed_step_is_a_termination():
     p = cached_plan("E2S2", 0)
     scenario = dataclasses.replace(load_scenario("e2s2"), step_limit=p.steps)
-    env = PaperAssemblyEnv(config=None, scenario=scenario)
+    env = readable_paper_env(config=None, scenario=scenario)
     env.reset(seed=0)
     for a in p.actions:
         _, _, terminated, truncated, info = env.step(a)
@@ -689,7 +697,7 @@ BLOCKED_CASES = [
 
 @pytest.mark.parametrize(("config", "before", "action", "k"), BLOCKED_CASES)
 def test_blocked_move_costs_a_step_and_does_not_count(config, before, action, k):
-    env = PaperAssemblyEnv(config, mask_blocked_moves=True)
+    env = readable_paper_env(config, mask_blocked_moves=True)
     env.reset(seed=0)
     for a in before:
         _, _, terminated, _, info = env.step(a)
@@ -719,8 +727,8 @@ def expected_mask(sim) -> np.ndarray:
 
 @pytest.mark.parametrize("config", ["E1S1", "E2S4", "E3S4", "E4S3"])
 def test_action_masks(config):
-    masked = PaperAssemblyEnv(config, mask_blocked_moves=True)
-    plain = PaperAssemblyEnv(config)
+    masked = readable_paper_env(config, mask_blocked_moves=True)
+    plain = readable_paper_env(config)
     rng = np.random.default_rng(11)
     seen_blocked = False
     for seed in range(2):
@@ -768,7 +776,7 @@ def test_first_move_blocked_still_lifts():
     # Spec §5.3: if the first action's move is blocked the component is still lifted and its
     # move counter stays 0. E2S2 with one obstacle cell beside column 2's pick-up pose
     # (7, 3, 2..5).
-    env = PaperAssemblyEnv(scenario=with_obstacles("e2s2", [((8, 3, 2), (8, 3, 2))]))
+    env = readable_paper_env(scenario=with_obstacles("e2s2", [((8, 3, 2), (8, 3, 2))]))
     obs, _ = env.reset(seed=0)
     _check_observation(env, obs)
     col2 = env.scenario.index_of("2")
@@ -783,7 +791,7 @@ def test_first_move_blocked_still_lifts():
 def test_lift_into_an_obstacle_costs_a_blocked_step():
     # Spec §5.3: a pick-up pose that overlaps something leaves the component where it is and
     # costs like a blocked move (never the case in the 16 configurations; built here).
-    env = PaperAssemblyEnv(scenario=with_obstacles("e2s2", [((7, 3, 5), (7, 3, 5))]))
+    env = readable_paper_env(scenario=with_obstacles("e2s2", [((7, 3, 5), (7, 3, 5))]))
     env.reset(seed=0)
     col2 = env.scenario.index_of("2")
     yard = cells_of(env.sim, col2)
@@ -804,7 +812,7 @@ def test_all_six_blocked_allows_all_six():
         ((4, 3, 4), (4, 5, 4)), ((6, 3, 4), (6, 5, 4)), ((5, 2, 4), (5, 2, 4)),
         ((5, 6, 4), (5, 6, 4)), ((5, 3, 5), (5, 5, 5)), ((5, 3, 3), (5, 5, 3)),
     ]  # fmt: skip
-    env = PaperAssemblyEnv(scenario=with_obstacles("e2s2", boxes), mask_blocked_moves=True)
+    env = readable_paper_env(scenario=with_obstacles("e2s2", boxes), mask_blocked_moves=True)
     env.reset(seed=0)
     for a in GOLDEN_E2S2_ACTIONS[:23]:
         _, _, _, _, info = env.step(a)
@@ -855,7 +863,7 @@ def _fixed_initial(config: str) -> dict:
 
 @pytest.mark.parametrize("config", FIXED_START)
 def test_fixed_start_poses_follow_the_spec(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     table = _fixed_initial(config)
     for seed in range(4):
         env.reset(seed=seed)
@@ -866,7 +874,7 @@ def test_fixed_start_poses_follow_the_spec(config):
 
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
 def test_same_seed_same_start(config):
-    a, b = PaperAssemblyEnv(config), PaperAssemblyEnv(config)
+    a, b = readable_paper_env(config), readable_paper_env(config)
     for seed in (0, 1, 12345):
         obs_a, info_a = a.reset(seed=seed)
         a.step(UP)
@@ -880,7 +888,7 @@ def test_same_seed_same_start(config):
 
 @pytest.mark.parametrize("config", RANDOM_START)
 def test_random_starts_differ_and_follow_the_rule(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     scenario = env.scenario
     layouts = set()
     directions = set()
@@ -911,7 +919,7 @@ def test_random_starts_differ_and_follow_the_rule(config):
 
 
 def test_env1_prebuilt_column_coin():
-    env = PaperAssemblyEnv("E1S2")
+    env = readable_paper_env("E1S2")
     col2 = env.scenario.index_of("2")
     count = {(9, 9): 0, (9, 13): 0}
     for seed in range(200):
@@ -926,7 +934,7 @@ def test_env1_prebuilt_column_coin():
 
 
 def test_env1_s1_prebuilt_column_stands_on_its_own_target():
-    env = PaperAssemblyEnv("E1S1")
+    env = readable_paper_env("E1S1")
     col2 = env.scenario.index_of("2")
     for seed in range(20):
         env.reset(seed=seed)
@@ -937,7 +945,7 @@ def test_random_start_distribution():
     # Spec §4 fixes the distribution of the first drawn component (no overlap to redraw):
     # x ~ U{3..11} (mean 7), y ~ U{3..7} if x < 6 else U{3..5} (mean 13/3), direction -x or
     # -y with probability 1/2 each. E2S1 draws beam 1 first (list order 1, 2, 3).
-    env = PaperAssemblyEnv("E2S1")
+    env = readable_paper_env("E2S1")
     beam = env.scenario.index_of("1")
     xs, ys, along_x = [], [], []
     for seed in range(600):
@@ -963,7 +971,7 @@ def test_random_start_distribution():
 @pytest.mark.parametrize("config", ["E1S1", "E3S4", "E4S3"])
 def test_clone_mid_episode_continues_identically(config, how):
     p = cached_plan(config, 0)
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     env.reset(seed=0)
     half = len(p.actions) // 2
     for a in p.actions[:half]:
@@ -986,7 +994,7 @@ def test_clone_mid_episode_continues_identically(config, how):
 
 @pytest.mark.parametrize("config", ["E1S3", "E3S2", "E4S3"])
 def test_plan_from_the_middle_of_an_episode(config):
-    env = PaperAssemblyEnv(config)
+    env = readable_paper_env(config)
     obs, _ = env.reset(seed=4)
     rng = np.random.default_rng(4)
     full = cached_plan(config, 4).actions

@@ -7,7 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import SCENARIOS, reach_skip
+from conftest import SCENARIOS, reach_skip, readable_env
 from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, seed_test
 from test_invariants import Checker
 
@@ -40,7 +40,7 @@ PRIORITIZED_SEED0 = {
 
 
 def task_env(name="e3s2", n=2, **options):
-    return multicrane.parallel_env(name, n_cranes=n, decisions="task", **options)
+    return readable_env(name, n_cranes=n, decisions="task", **options)
 
 
 def random_tasks(obs, rng):
@@ -126,7 +126,7 @@ def test_random_task_play_keeps_the_invariants(name):
                 assert env.sim.state.n_assembled >= assembled
                 assembled = env.sim.state.n_assembled
             # replay the physical steps in motion mode under the invariant checker
-            motion = multicrane.parallel_env(name, n_cranes=n)
+            motion = readable_env(name, n_cranes=n)
             obs2, infos2 = motion.reset(seed=seed)
             checker = Checker(motion)
             checker.reset(obs2, infos2)
@@ -189,7 +189,7 @@ def test_reach_masks_and_carrier():
     far = dataclasses.replace(
         s, crane_specs=(CraneSpec((X - 1, Y - 1), 1.0), CraneSpec((0, 0), float(X + Y)))
     )
-    env = multicrane.parallel_env(far, n_cranes=2, decisions="task")
+    env = readable_env(far, n_cranes=2, decisions="task")
     env.reset(seed=0)
     book = env.task_mode.book
     m = book.masks()
@@ -262,7 +262,7 @@ def test_busy_crane_may_only_continue_strict():
 
 @pytest.mark.parametrize("decisions", ["motion", "task"])
 def test_makespan_reward_sums_to_completion_minus_makespan(decisions):
-    env = multicrane.parallel_env("e3s2", n_cranes=2, decisions=decisions, reward="makespan")
+    env = readable_env("e3s2", n_cranes=2, decisions=decisions, reward="makespan")
     m = run_episode(env, policies.make("prioritized", env, seed=0), seed=0)
     assert m["success"]
     completion = env.scenario.reward.completion
@@ -271,8 +271,8 @@ def test_makespan_reward_sums_to_completion_minus_makespan(decisions):
 
 
 def test_paper_reward_sums_the_motion_rewards():
-    motion = multicrane.parallel_env("e4s2", n_cranes=3)
-    task = multicrane.parallel_env("e4s2", n_cranes=3, decisions="task")
+    motion = readable_env("e4s2", n_cranes=3)
+    task = readable_env("e4s2", n_cranes=3, decisions="task")
     a = run_episode(motion, policies.make("prioritized", motion, seed=1), seed=1)
     b = run_episode(task, policies.make("prioritized", task, seed=1), seed=1)
     assert b["return"] == pytest.approx(a["return"])
@@ -305,7 +305,7 @@ def test_task_prioritized_gives_the_motion_makespans(name):
             continue
         spans = []
         for decisions in ("motion", "task"):
-            env = multicrane.parallel_env(name, n_cranes=n, decisions=decisions)
+            env = readable_env(name, n_cranes=n, decisions=decisions)
             m = run_episode(env, policies.make("prioritized", env, seed=0), seed=0)
             spans.append(m["makespan"])
         assert spans == [PRIORITIZED_SEED0[name][n - 1]] * 2, (name, n, spans)
@@ -325,13 +325,13 @@ def test_registry_gives_task_planners():
 
 def test_bad_options():
     with pytest.raises(ValueError, match="decisions"):
-        multicrane.parallel_env("e2s2", decisions="moves")
+        readable_env("e2s2", decisions="moves")
     with pytest.raises(ValueError, match="reward"):
-        multicrane.parallel_env("e2s2", reward="fast")
+        readable_env("e2s2", reward="fast")
     with pytest.raises(ValueError, match="auto"):
-        multicrane.parallel_env("e2s2", decisions="task", auto=True)
+        readable_env("e2s2", decisions="task", auto=True)
     with pytest.raises(ValueError, match="task_patience"):
-        multicrane.parallel_env("e2s2", decisions="task", task_patience=0)
+        readable_env("e2s2", decisions="task", task_patience=0)
 
 
 def test_maskable_ppo_trains_in_task_mode(tmp_path):
