@@ -13,6 +13,7 @@ import numpy as np
 
 from multicrane import geometry
 from multicrane.scenario import ComponentSpec, Scenario, ScenarioError
+from multicrane.types import Kind
 
 Pose = geometry.Pose
 MAX_START_ATTEMPTS = 1000
@@ -45,7 +46,8 @@ class _Candidates:
     probs: np.ndarray  # (n,) probability of each pose under the rule
 
 
-_CACHE: dict[tuple[str, str, int], _Candidates] = {}
+_CACHE: dict[tuple, _Candidates] = {}
+_CACHE_MAX = 20_000  # entries; cleared when full (many generated scenarios in one process)
 
 
 def _flat(scenario: Scenario, cell: tuple[int, int, int]) -> int:
@@ -58,9 +60,23 @@ def _candidates(scenario: Scenario, index: int) -> _Candidates:
     key = (scenario.sha256, scenario.source, index)
     if key in _CACHE:
         return _CACHE[key]
+    component = scenario.components[index]
+    # The table depends only on the component's shape: kind, length, and for a beam its own
+    # target's axis and height (its pick-up pose); components of one shape share it.
+    shape = (scenario.sha256, scenario.source, "shape", component.kind, component.length)
+    if component.kind is Kind.BEAM:
+        shape += (geometry.axis_of(*component.target), component.target[0][2])
+    if shape not in _CACHE:
+        if len(_CACHE) > _CACHE_MAX:
+            _CACHE.clear()
+        _CACHE[shape] = _compute(scenario, component)
+    _CACHE[key] = _CACHE[shape]
+    return _CACHE[key]
+
+
+def _compute(scenario: Scenario, component: ComponentSpec) -> _Candidates:
     rule = scenario.random_start
     assert rule is not None
-    component = scenario.components[index]
     obstacle = scenario.obstacle_cells()
     xs = [x for band in rule.bands for x in range(band.x[0], band.x[1] + 1)]
     poses: list[Pose] = []
@@ -78,9 +94,7 @@ def _candidates(scenario: Scenario, index: int) -> _Candidates:
     cells = np.array(
         [[_flat(scenario, c) for c in geometry.pose_cells(*p)] for p in poses], dtype=np.intp
     ).reshape(len(poses), component.length)
-    table = _Candidates(tuple(poses), cells, np.array(probs))
-    _CACHE[key] = table
-    return table
+    return _Candidates(tuple(poses), cells, np.array(probs))
 
 
 def _usable(scenario: Scenario, component: ComponentSpec, pose: Pose, obstacle: set) -> bool:
