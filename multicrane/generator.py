@@ -70,6 +70,8 @@ def draw_params(family: str, seed: int, **params: Any) -> dict[str, Any]:
         "interchangeable": rng.random() < 0.5,
         "random_start": rng.random() < 0.5,
     }
+    if params.get("reach"):
+        drawn_opts["interchangeable"] = False  # reach is only generated with own targets
     for key, drawn in drawn_opts.items():
         out[key] = params.get(key, drawn)
     _check_params(out)
