@@ -205,3 +205,28 @@ def test_set_members_generate_what_their_parameters_say():
         assert s.cranes == dict(m.params)["cranes"]
     two = resolve_set("set:train:0-2")
     assert [name for name, _ in two] == [train_member(0).name, train_member(1).name]
+
+
+def test_generate_command_writes_a_file_that_checks(tmp_path, capsys):
+    from multicrane.cli import main
+
+    out = tmp_path / "site.toml"
+    assert main(["generate", "tower", "--seed", "2", "--storeys", "3", "--cranes", "2",
+                 "--reach", "--fixed-start", "-o", str(out)]) == 0  # fmt: skip
+    first = out.read_bytes()
+    assert main(["generate", "tower", "--seed", "2", "--storeys", "3", "--cranes", "2",
+                 "--reach", "--fixed-start", "-o", str(out)]) == 0  # fmt: skip
+    assert out.read_bytes() == first
+    assert main(["check", str(out)]) == 0
+    assert load_scenario(out).crane_specs
+    assert main(["generate", "dome"]) == 2
+    assert "unknown family 'dome'" in capsys.readouterr().err
+
+
+def test_plan_takes_a_set_and_prints_its_means(capsys):
+    from multicrane.cli import main
+
+    assert main(["plan", "set:train:0-2", "--policy", "prioritized"]) == 0
+    text = capsys.readouterr().out
+    assert "2 sites" in text and "(set mean)" in text
+    assert main(["plan", "set:nothing", "--policy", "prioritized"]) == 2
