@@ -21,6 +21,7 @@ generated with own targets (interchangeable targets under reach can deadlock pla
 
 from __future__ import annotations
 
+import hashlib
 import math
 import random
 from dataclasses import replace
@@ -134,6 +135,8 @@ def generate(family: str, seed: int, **params: Any) -> Scenario:
         interchangeable_targets=p["interchangeable"], assembly_steps=1, beam_lift_z=site.size[2],
         reward=RewardSpec(), random_start=site.random_start,
     )  # fmt: skip
+    # Caches keyed by the file hash (``multicrane.start``) must not mix up drafts: hash the text.
+    draft = replace(draft, sha256=hashlib.sha256(to_toml(draft).encode()).hexdigest())
     if p["reach"]:
         draft = _with_reach(draft, p["cranes"])
     draft = _with_obstacles(draft, p["obstacles"], site.free_boxes, rng)

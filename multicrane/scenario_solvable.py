@@ -57,10 +57,17 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
             labels[_flood(fits, cell)] = int(labels.max()) + 1
         return int(labels[cell])
 
+    shared: dict[int, np.ndarray] = {}  # labels of a pick-up list shared by one shape
+
     def start_labels(i: int) -> np.ndarray:
         """The region label of each of component ``i``'s pick-up poses (0: does not fit)."""
-        extent = _offsets(s.components[i].target)
         poses = starts[i]
+        if id(poses) not in shared:
+            shared[id(poses)] = _labels(i, poses)
+        return shared[id(poses)]
+
+    def _labels(i: int, poses: list[geometry.Pose]) -> np.ndarray:
+        extent = _offsets(s.components[i].target)
         label_of(extent, _anchor(poses[0]))  # the regions of this shape exist from here on
         anchors = np.array([_anchor(p) for p in poses]).T
         labels = regions[extent][1][tuple(anchors)]
@@ -71,9 +78,10 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
     pickups: dict[tuple, list[geometry.Pose]] = {}
     starts = {i: _pickup_poses(s, i, pickups) for i, c in enumerate(s.components) if not c.prebuilt}
     labels_of = {i: start_labels(i) for i in starts}
+    compatible = _compatible_all(s)
     for i, poses in starts.items():
         c = s.components[i]
-        targets = _compatible(s, i)
+        targets = compatible[i]
         extent = _offsets(c.target)
         goal = {label_of(extent, _anchor(s.components[t].target)) for t in targets} - {0}
         bad = ~np.isin(labels_of[i], list(goal))
@@ -94,7 +102,7 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
     for t in range(len(s.components)):
         if t in maybe_prebuilt:
             continue
-        fillers = [i for i in starts if t in _compatible(s, i)]
+        fillers = [i for i in starts if t in compatible[i]]
         target = s.components[t].target
         label = label_of(_offsets(target), _anchor(target))
         if label == 0 or not any((labels_of[i] == label).all() for i in fillers):
@@ -151,16 +159,16 @@ def target_supports(s: Scenario) -> list[list[int]]:
     return out
 
 
-def _compatible(s: Scenario, i: int) -> list[int]:
-    own = s.components[i]
+def _compatible_all(s: Scenario) -> list[set[int]]:
+    """Per component, the targets it may fill (its own; with interchangeable targets, every
+    target of the same kind, length and axis)."""
     if not s.interchangeable_targets:
-        return [i]
-    shape = (own.kind, own.length, geometry.axis_of(*own.target))
-    return [
-        j
-        for j, o in enumerate(s.components)
-        if (o.kind, o.length, geometry.axis_of(*o.target)) == shape
-    ]
+        return [{i} for i in range(len(s.components))]
+    shape = [(c.kind, c.length, geometry.axis_of(*c.target)) for c in s.components]
+    groups: dict[tuple, set[int]] = {}
+    for j, key in enumerate(shape):
+        groups.setdefault(key, set()).add(j)
+    return [groups[key] for key in shape]
 
 
 def _pickup_poses(s: Scenario, i: int, cache: dict[tuple, list]) -> list[geometry.Pose]:
