@@ -240,3 +240,12 @@ def test_same_seed_other_parameters_share_no_cached_start_poses():
     generator.generate("frame", 1, **p)
     s = generator.generate("frame", 1, **{**p, "storeys": 1})
     assert uncarriable(s) is None
+
+
+def test_evaluate_takes_a_set_and_pools_its_sites(capsys):
+    from multicrane.cli import main
+
+    argv = ["evaluate", "--scenario", "set:train:0-2", "--policy", "prioritized", "--episodes", "1"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "1 episodes per site x 2 sites" in out and "prioritized" in out
