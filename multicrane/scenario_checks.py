@@ -9,7 +9,7 @@ from __future__ import annotations
 from multicrane import geometry
 from multicrane.reach import uncarriable
 from multicrane.scenario import Cell, Scenario, ScenarioError
-from multicrane.start import candidate_poses
+from multicrane.start import has_candidates
 from multicrane.toml_table import TomlTable
 from multicrane.types import Kind
 
@@ -102,7 +102,7 @@ def check_scenario(s: Scenario, tables: list[TomlTable]) -> None:
     # Random starts: every component drawn at reset must have at least one possible pose.
     if s.random_start is not None:
         for i, c in enumerate(s.components):
-            if c.initial is None and not c.prebuilt and not candidate_poses(s, c):
+            if c.initial is None and not c.prebuilt and not has_candidates(s, c):
                 raise fail(i, "id", "the random start rule has no valid pose for this component")
 
 

@@ -43,31 +43,58 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
         ids = " -> ".join(repr(s.components[i].id) for i in cycle)
         raise fail(cycle[0], "supports", f"the supports form a cycle ({ids}): no assembly order")
     free = _static_free(s)
-    cache: dict[tuple, np.ndarray] = {}
+    regions: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray]] = {}
 
-    def reached(i: int, targets: list[int]) -> np.ndarray:
-        shape = _offsets(s.components[i].target)
-        key = (shape, tuple(targets))
-        if key not in cache:
-            goals = [_anchor(s.components[t].target) for t in targets]
-            cache[key] = _reachable(free, shape, goals)
-        return cache[key]
+    def label_of(extent: tuple[int, int, int], cell: Cell) -> int:
+        """The connected region (> 0) of the shape's positions holding ``cell``; 0: none.
+        Regions are labelled lazily, one flood fill per region (not per target)."""
+        if extent not in regions:
+            regions[extent] = (_fits(free, extent), np.zeros(free.shape, dtype=np.int32))
+        fits, labels = regions[extent]
+        if not fits[cell]:
+            return 0
+        if labels[cell] == 0:
+            labels[_flood(fits, cell)] = int(labels.max()) + 1
+        return int(labels[cell])
 
-    starts = {i: _pickup_poses(s, i) for i, c in enumerate(s.components) if not c.prebuilt}
+    shared: dict[int, np.ndarray] = {}  # labels of a pick-up list shared by one shape
+
+    def start_labels(i: int) -> np.ndarray:
+        """The region label of each of component ``i``'s pick-up poses (0: does not fit)."""
+        poses = starts[i]
+        if id(poses) not in shared:
+            shared[id(poses)] = _labels(i, poses)
+        return shared[id(poses)]
+
+    def _labels(i: int, poses: list[geometry.Pose]) -> np.ndarray:
+        extent = _offsets(s.components[i].target)
+        label_of(extent, _anchor(poses[0]))  # the regions of this shape exist from here on
+        anchors = np.array([_anchor(p) for p in poses]).T
+        labels = regions[extent][1][tuple(anchors)]
+        for k in np.flatnonzero(labels == 0):  # not flooded yet, or not fitting
+            labels[k] = label_of(extent, _anchor(poses[k]))
+        return labels
+
+    pickups: dict[tuple, list[geometry.Pose]] = {}
+    starts = {i: _pickup_poses(s, i, pickups) for i, c in enumerate(s.components) if not c.prebuilt}
+    labels_of = {i: start_labels(i) for i in starts}
+    compatible = _compatible_all(s)
     for i, poses in starts.items():
         c = s.components[i]
-        targets = _compatible(s, i)
-        field = reached(i, targets)
-        for pose in poses:
-            if not field[_anchor(pose)]:
-                where = "its initial pose" if c.initial is not None else "the drawn start"
-                raise fail(
-                    i,
-                    "target",
-                    f"cannot be reached: no obstacle-free path of the lifted component from "
-                    f"{where}'s pick-up pose {[list(p) for p in pose]} to "
-                    + ("its target" if len(targets) == 1 else "any target it may fill"),
-                )
+        targets = compatible[i]
+        extent = _offsets(c.target)
+        goal = {label_of(extent, _anchor(s.components[t].target)) for t in targets} - {0}
+        bad = ~np.isin(labels_of[i], list(goal))
+        if bad.any():
+            pose = poses[int(np.flatnonzero(bad)[0])]
+            where = "its initial pose" if c.initial is not None else "the drawn start"
+            raise fail(
+                i,
+                "target",
+                f"cannot be reached: no obstacle-free path of the lifted component from "
+                f"{where}'s pick-up pose {[list(p) for p in pose]} to "
+                + ("its target" if len(targets) == 1 else "any target it may fill"),
+            )
     # With interchangeable targets, every target some movable component must fill needs a
     # component that reaches it from each of its starts.
     maybe_prebuilt = {j for c in s.components if c.prebuilt for j in c.prebuilt_on or ()}
@@ -75,8 +102,10 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
     for t in range(len(s.components)):
         if t in maybe_prebuilt:
             continue
-        fillers = [i for i in starts if t in _compatible(s, i)]
-        if not any(all(reached(i, [t])[_anchor(p)] for p in starts[i]) for i in fillers):
+        fillers = [i for i in starts if t in compatible[i]]
+        target = s.components[t].target
+        label = label_of(_offsets(target), _anchor(target))
+        if label == 0 or not any((labels_of[i] == label).all() for i in fillers):
             raise fail(
                 t,
                 "target",
@@ -130,25 +159,31 @@ def target_supports(s: Scenario) -> list[list[int]]:
     return out
 
 
-def _compatible(s: Scenario, i: int) -> list[int]:
-    own = s.components[i]
+def _compatible_all(s: Scenario) -> list[set[int]]:
+    """Per component, the targets it may fill (its own; with interchangeable targets, every
+    target of the same kind, length and axis)."""
     if not s.interchangeable_targets:
-        return [i]
-    shape = (own.kind, own.length, geometry.axis_of(*own.target))
-    return [
-        j
-        for j, o in enumerate(s.components)
-        if (o.kind, o.length, geometry.axis_of(*o.target)) == shape
-    ]
+        return [{i} for i in range(len(s.components))]
+    shape = [(c.kind, c.length, geometry.axis_of(*c.target)) for c in s.components]
+    groups: dict[tuple, set[int]] = {}
+    for j, key in enumerate(shape):
+        groups.setdefault(key, set()).add(j)
+    return [groups[key] for key in shape]
 
 
-def _pickup_poses(s: Scenario, i: int) -> list[geometry.Pose]:
+def _pickup_poses(s: Scenario, i: int, cache: dict[tuple, list]) -> list[geometry.Pose]:
+    """The distinct pick-up poses of component ``i`` over its starts; drawn starts depend
+    only on the component's shape, so their pick-up poses are computed once per shape."""
     c = s.components[i]
     if c.initial is not None:
-        initials = [c.initial]
-    else:
+        return [geometry.pickup_pose(c, s.beam_lift_z, c.initial)]
+    key = (c.kind, c.length, geometry.axis_of(*c.target), c.target[0][2])
+    if key not in cache:
         initials = [pose for pose, _ in candidate_poses(s, c)]
-    return list(dict.fromkeys(geometry.pickup_pose(c, s.beam_lift_z, p) for p in initials))
+        cache[key] = list(
+            dict.fromkeys(geometry.pickup_pose(c, s.beam_lift_z, p) for p in initials)
+        )
+    return cache[key]
 
 
 def _anchor(pose: geometry.Pose) -> Cell:
@@ -174,9 +209,8 @@ def _static_free(s: Scenario) -> np.ndarray:
     return free
 
 
-def _reachable(free: np.ndarray, extent: tuple[int, int, int], goals: list[Cell]) -> np.ndarray:
-    """Bool per anchor position: the straight shape of ``extent`` fits there and connects
-    to some goal by unit moves through fitting positions (moves are symmetric)."""
+def _fits(free: np.ndarray, extent: tuple[int, int, int]) -> np.ndarray:
+    """Bool per anchor position: the straight shape of ``extent`` fits there."""
     fits = free.copy()
     for axis, n in enumerate(extent):
         for k in range(1, n + 1):
@@ -187,10 +221,13 @@ def _reachable(free: np.ndarray, extent: tuple[int, int, int], goals: list[Cell]
             dst[axis] = slice(None, -k)
             shifted[tuple(dst)] = free[tuple(src)]
             fits &= shifted
+    return fits
+
+
+def _flood(fits: np.ndarray, start: Cell) -> np.ndarray:
+    """The positions connected to ``start`` by unit moves through fitting positions."""
     seen = np.zeros_like(fits)
-    for g in goals:
-        if fits[g]:
-            seen[g] = True
+    seen[start] = True
     frontier = seen.copy()
     while frontier.any():
         grown = frontier.copy()

@@ -13,6 +13,7 @@ import numpy as np
 
 from multicrane import geometry
 from multicrane.scenario import ComponentSpec, Scenario, ScenarioError
+from multicrane.types import Kind
 
 Pose = geometry.Pose
 MAX_START_ATTEMPTS = 1000
@@ -38,6 +39,11 @@ def candidate_poses(scenario: Scenario, component: ComponentSpec) -> list[tuple[
     return list(zip(table.poses, table.probs.tolist(), strict=True))
 
 
+def has_candidates(scenario: Scenario, component: ComponentSpec) -> bool:
+    """True when the random start rule can draw some pose for the component."""
+    return len(_candidates(scenario, scenario.components.index(component)).poses) > 0
+
+
 @dataclass(frozen=True)
 class _Candidates:
     poses: tuple[Pose, ...]
@@ -45,7 +51,8 @@ class _Candidates:
     probs: np.ndarray  # (n,) probability of each pose under the rule
 
 
-_CACHE: dict[tuple[str, str, int], _Candidates] = {}
+_CACHE: dict[tuple, _Candidates] = {}
+_CACHE_MAX = 20_000  # entries; cleared when full (many generated scenarios in one process)
 
 
 def _flat(scenario: Scenario, cell: tuple[int, int, int]) -> int:
@@ -58,42 +65,100 @@ def _candidates(scenario: Scenario, index: int) -> _Candidates:
     key = (scenario.sha256, scenario.source, index)
     if key in _CACHE:
         return _CACHE[key]
+    component = scenario.components[index]
+    # The table depends only on the component's shape: kind, length, and for a beam its own
+    # target's axis and height (its pick-up pose); components of one shape share it.
+    shape = (scenario.sha256, scenario.source, "shape", component.kind, component.length)
+    if component.kind is Kind.BEAM:
+        shape += (geometry.axis_of(*component.target), component.target[0][2])
+    if shape not in _CACHE:
+        if len(_CACHE) > _CACHE_MAX:
+            _CACHE.clear()
+        _CACHE[shape] = _compute(scenario, component)
+    _CACHE[key] = _CACHE[shape]
+    return _CACHE[key]
+
+
+def _compute(scenario: Scenario, component: ComponentSpec) -> _Candidates:
+    """Every drawable pose, in the rule's order (band, x, y, direction), tested as arrays:
+    the pose's cells inside the site, in the yard and off obstacles, and its pick-up pose's
+    cells inside the site and off obstacles."""
     rule = scenario.random_start
     assert rule is not None
-    component = scenario.components[index]
-    obstacle = scenario.obstacle_cells()
-    xs = [x for band in rule.bands for x in range(band.x[0], band.x[1] + 1)]
+    X, Y, H = scenario.size
+    blocked = np.zeros((X, Y, H + 1), dtype=bool)
+    for box in scenario.obstacles:
+        (x0, y0, z0), (x1, y1, z1) = box.lo, box.hi
+        blocked[x0 : x1 + 1, y0 : y1 + 1, z0 : z1 + 1] = True
+    ax0, ay0, ax1, ay1 = scenario.construction_area
+    n_x = sum(b.x[1] - b.x[0] + 1 for b in rule.bands)
+    length = component.length
+    steps = np.arange(length)
+    dirs = np.array(rule.directions, dtype=np.int64)  # (D, 3)
     poses: list[Pose] = []
     probs: list[float] = []
     for band in rule.bands:
-        ys = range(band.y[0], band.y[1] + 1)
-        for x in range(band.x[0], band.x[1] + 1):
-            for y in ys:
-                for d in rule.directions:
-                    k = component.length - 1
-                    pose = ((x, y, rule.z), (x + k * d[0], y + k * d[1], rule.z + k * d[2]))
-                    if _usable(scenario, component, pose, obstacle):
-                        poses.append(pose)
-                        probs.append(1.0 / (len(xs) * len(ys) * len(rule.directions)))
-    cells = np.array(
+        xs = np.arange(band.x[0], band.x[1] + 1)
+        ys = np.arange(band.y[0], band.y[1] + 1)
+        gx, gy, gd = np.meshgrid(xs, ys, np.arange(len(dirs)), indexing="ij")
+        n1 = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, rule.z)], axis=1)  # (P, 3)
+        d = dirs[gd.ravel()]
+        n2 = n1 + (length - 1) * d
+        cells = n1[:, None, :] + steps[None, :, None] * d[:, None, :]  # (P, L, 3)
+        ok = _inside(cells, X, Y, H) & ~_in_area(cells, ax0, ay0, ax1, ay1)
+        ok &= ~_hits(blocked, cells, ok)
+        lifted = _lifted_cells(component, scenario.beam_lift_z, n1, n2, steps)
+        ok &= _inside(lifted, X, Y, H)
+        ok &= ~_hits(blocked, lifted, ok)
+        p = 1.0 / (n_x * len(ys) * len(dirs))
+        for k in np.flatnonzero(ok):
+            a, b = n1[k], n2[k]
+            poses.append(((int(a[0]), int(a[1]), int(a[2])), (int(b[0]), int(b[1]), int(b[2]))))
+            probs.append(p)
+    flat = np.array(
         [[_flat(scenario, c) for c in geometry.pose_cells(*p)] for p in poses], dtype=np.intp
-    ).reshape(len(poses), component.length)
-    table = _Candidates(tuple(poses), cells, np.array(probs))
-    _CACHE[key] = table
-    return table
+    ).reshape(len(poses), length)
+    return _Candidates(tuple(poses), flat, np.array(probs))
 
 
-def _usable(scenario: Scenario, component: ComponentSpec, pose: Pose, obstacle: set) -> bool:
-    for cell in geometry.pose_cells(*pose):
-        if not geometry.in_site(cell, scenario.size) or cell in obstacle:
-            return False
-        if scenario.in_construction_area(cell[0], cell[1]):
-            return False
-    lifted = geometry.pickup_pose(component, scenario.beam_lift_z, pose)
-    return all(
-        geometry.in_site(cell, scenario.size) and cell not in obstacle
-        for cell in geometry.pose_cells(*lifted)
-    )
+def _inside(cells: np.ndarray, X: int, Y: int, H: int) -> np.ndarray:
+    x, y, z = cells[..., 0], cells[..., 1], cells[..., 2]
+    return ((x >= 0) & (x < X) & (y >= 0) & (y < Y) & (z >= 1) & (z <= H)).all(axis=-1)
+
+
+def _in_area(cells: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    x, y = cells[..., 0], cells[..., 1]
+    return ((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)).any(axis=-1)
+
+
+def _hits(blocked: np.ndarray, cells: np.ndarray, where: np.ndarray) -> np.ndarray:
+    """Per pose (only where ``where``; cells inside the site there): some cell is blocked."""
+    out = np.zeros(len(cells), dtype=bool)
+    idx = np.flatnonzero(where)
+    if len(idx):
+        c = cells[idx]
+        out[idx] = blocked[c[..., 0], c[..., 1], c[..., 2]].any(axis=-1)
+    return out
+
+
+def _lifted_cells(
+    component: ComponentSpec, beam_lift_z: int | None, n1: np.ndarray, n2: np.ndarray,
+    steps: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """The cells of the pick-up pose of each start (``geometry.lifted_pose`` on arrays)."""
+    length = component.length
+    if component.kind is Kind.COLUMN:
+        base = n1 + np.array([0, 0, 1])
+        axis = 2
+    else:
+        z = beam_lift_z if beam_lift_z is not None else component.target[0][2]
+        axis = geometry.axis_of(*component.target)
+        base = np.stack([(n1[:, 0] + n2[:, 0]) // 2, (n1[:, 1] + n2[:, 1]) // 2,
+                         np.full(len(n1), z)], axis=1)  # fmt: skip
+        base[:, axis] -= (length - 1) // 2
+    unit = np.zeros(3, dtype=np.int64)
+    unit[axis] = 1
+    return base[:, None, :] + steps[None, :, None] * unit[None, None, :]
 
 
 def draw_start(scenario: Scenario, rng: np.random.Generator) -> Start:

@@ -26,6 +26,7 @@ COMMANDS = (
     "train",
     "replay",
     "check",
+    "generate",
     "bound",
     "bench",
     "benchmark",

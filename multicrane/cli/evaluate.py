@@ -15,13 +15,16 @@ and seeds.
     multicrane evaluate --paper E2S2 --policy runs/E2S2-ppo-s0 optimal greedy random
     multicrane evaluate --scenario e2s2 --cranes 2 \\
         --policy runs/e2s2-2c-maskable_ppo-s0 prioritized greedy random --episodes 50
+    multicrane evaluate --scenario set:test-small --policy prioritized greedy --episodes 2
 
 A policy is optimal (paper mode), prioritized (multi-agent), greedy, random, or a training
 run directory (multicrane train --out; needs the 'train' extra). Every policy plays the same
 episodes: reset seeds --seed .. --seed + episodes - 1 (default: the evaluation seeds training
 uses, 1000000..). Trained models act greedily. Prints, per policy: mean return ± standard
 error over episodes, success rate, mean steps to finish (finished episodes), mean steps, and
-in paper mode the gap to the exact planner's return on the same seeds.
+in paper mode the gap to the exact planner's return on the same seeds. --scenario
+set:test-small, set:test-large or set:train:FIRST-END evaluates on every site of a scenario
+set (multicrane.scenario_sets): each row pools the episodes of all its sites (the set's means).
 """
 
 
@@ -40,15 +43,18 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
     """One row per policy: its label, summary and episodes (all on the same seeds)."""
     import policies
     from multicrane.rollout import evaluate, optimal_returns
+    from multicrane.scenario_sets import is_set_ref
     from multicrane.training.seeding import evaluation_seeds
 
     paper = args.paper is not None
-    env = make_env(args.paper, args.scenario, args.cranes, args.auto, decisions=args.decisions)
     if args.seed is None:
         seeds = evaluation_seeds(args.episodes)  # the seeds training evaluates on
     else:
         seeds = list(range(args.seed, args.seed + args.episodes))
     factories = [policies.factory(spec, paper=paper) for spec in args.policy]  # fail early
+    if not paper and args.scenario and is_set_ref(args.scenario):
+        return _evaluate_set(args, factories, seeds, advance)
+    env = make_env(args.paper, args.scenario, args.cranes, args.auto, decisions=args.decisions)
     best = optimal_returns(env, seeds) if paper else None
     rows = []
     for make in factories:
@@ -57,6 +63,28 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
         episodes, summary = evaluate(env, make, seeds, progress_, optimal=best)
         summary["seconds"] = round(time.perf_counter() - start, 3)
         rows.append({"policy": make.label, "summary": summary, "episodes": episodes})
+    return rows
+
+
+def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], advance) -> list:
+    """One row per policy over every site of the set ``args.scenario`` (``set:NAME``): its
+    summary pools the episodes of all sites (so the means are the set's means)."""
+    from multicrane.rollout import evaluate, summarise
+    from multicrane.scenario_sets import resolve_set
+
+    sites = resolve_set(args.scenario)
+    rows = []
+    for make in factories:
+        start = time.perf_counter()
+        pooled: list[dict] = []
+        for _, scenario in sites:
+            env = make_env(None, scenario, args.cranes, args.auto, decisions=args.decisions)
+            episodes, _ = evaluate(env, make, seeds, counting(advance) if advance else None)
+            pooled += episodes
+        summary = summarise(pooled)
+        summary["seconds"] = round(time.perf_counter() - start, 3)
+        summary["sites"] = len(sites)
+        rows.append({"policy": make.label, "summary": summary, "episodes": pooled})
     return rows
 
 
@@ -100,7 +128,9 @@ def run(args: argparse.Namespace) -> int:
         return error(exc)
     paper = args.paper is not None
     where = args.paper or f"{args.scenario}" + (f", {args.cranes} cranes" if args.cranes else "")
-    print(f"{where}: {args.episodes} episodes per policy (same seeds for all)")
+    sites = rows[0]["summary"].get("sites") if rows else None
+    per = f"{args.episodes} episodes" + (f" per site x {sites} sites" if sites else "")
+    print(f"{where}: {per} per policy (same seeds for all)")
     print(format_table(rows, paper))
     if paper:
         print("gap = optimal return - policy return (exact planner on the same seeds)")

@@ -14,10 +14,13 @@ DESCRIPTION = """Run policies on a scenario and print what they achieve.
     multicrane plan frame2-3c --policy prioritized greedy random --episodes 5
     multicrane plan e2s2 --policy greedy --render                # print the final site
     multicrane plan hall-4c --policy prioritized --record ep.json.gz --rrd ep.rrd
+    multicrane plan set:test-small --policy prioritized greedy  # a held-out set: set means
     multicrane plan E2S2 --paper --policy optimal greedy         # single-agent paper mode
 
 SCENARIO is a shipped scenario name or a .toml file (with --paper: a paper configuration,
-E1S1 .. E4S4). A policy is prioritized, greedy, random (optimal in paper mode) or a training
+E1S1 .. E4S4), or a scenario set: set:test-small, set:test-large or set:train:FIRST-END
+(train seeds FIRST..END-1); a set prints one row per site and the set's means.
+A policy is prioritized, greedy, random (optimal in paper mode) or a training
 run directory (needs the 'train' extra). Episode i starts from reset(seed=--seed + i), the
 same for every policy. Prints, per policy: mean return ± standard error, success rate,
 makespan (joint steps to finish, finished episodes), steps, and in multi-agent mode crane
@@ -33,8 +36,12 @@ def register(sub) -> None:
     p.add_argument("scenario", help="shipped name, .toml path, or (with --paper) E1S1 .. E4S4")
     p.add_argument("--paper", action="store_true", help="single-agent paper mode")
     p.add_argument("--cranes", type=int, default=None, help="default: the scenario's")
-    p.add_argument("--policy", nargs="+", default=["prioritized"],
-                   help="prioritized, greedy, random, optimal (paper), or a run directory")
+    p.add_argument(
+        "--policy",
+        nargs="+",
+        default=["prioritized"],
+        help="prioritized, greedy, random, optimal (paper), or a run directory",
+    )
     p.add_argument("--episodes", type=int, default=1)
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--auto", action="store_true", help="automatic claiming and assembly")
@@ -92,14 +99,21 @@ def record(args: argparse.Namespace, env, name: str) -> None:
 def run(args: argparse.Namespace) -> int:
     import multicrane
     import policies
+    from multicrane.cli.set_runs import run_set
     from multicrane.record import RecordError
     from multicrane.rollout import evaluate
+    from multicrane.scenario_sets import is_set_ref
 
     if args.episodes < 1:
         return error("--episodes must be at least 1")
     if (args.record or args.rrd) and (args.paper or len(args.policy) != 1):
         return error("--record and --rrd need one policy in multi-agent mode")
     try:
+        if is_set_ref(args.scenario) and not args.paper:
+            if args.record or args.rrd or args.render:
+                return error("--record, --rrd and --render take one scenario, not a set")
+            makers = [policies.factory(name, paper=False) for name in args.policy]
+            return run_set(args, makers, header(True), line)
         if args.paper:
             env = make_env(args.scenario)
         else:
