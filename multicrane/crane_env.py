@@ -28,7 +28,7 @@ from multicrane.validation import (
     require_reset,
 )
 
-ENV_VERSION = 0
+ENV_VERSION = 1
 DECISIONS = ("motion", "task")
 REWARDS = ("paper", "makespan")
 REWARD_MODES = ("team", "split")
@@ -117,7 +117,8 @@ class MultiCraneEnv(ParallelEnv):
     ``info_mask`` (default: True for ``"flat"``, else False), ``task_patience`` (20),
     ``task_site_planes`` (False).
 
-    **Version history.** v0: first release.
+    **Version history.** v0: first release. v1: numeric infos by default (``info_events``,
+    ``info_mask``), task-level decisions, reward options, crane reach, the global ``state()``.
 
     **Component states** (``multicrane.transitions``; pre-built components start assembled):
     """
