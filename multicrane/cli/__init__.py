@@ -27,6 +27,7 @@ COMMANDS = (
     "replay",
     "check",
     "generate",
+    "import_ifc",
     "bound",
     "bench",
     "benchmark",

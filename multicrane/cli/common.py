@@ -15,6 +15,7 @@ EXTRAS = {
     "rerun": "replay",
     "matplotlib": "bench",
     "ray": "ray",
+    "ifcopenshell": "ifc",
 }
 
 
