@@ -30,6 +30,17 @@ import numpy as np
 Point = tuple[float, float, float]
 
 
+def _owner(m) -> None:
+    """IFC2X3 needs an owner history on every rooted entity: ifcopenshell.api's defaults
+    (``owner.settings``) take the file's first person and organisation and application."""
+    import ifcopenshell.api.owner
+
+    person = ifcopenshell.api.owner.add_person(m)
+    org = ifcopenshell.api.owner.add_organisation(m)
+    ifcopenshell.api.owner.add_person_and_organisation(m, person=person, organisation=org)
+    ifcopenshell.api.owner.add_application(m)
+
+
 class FrameModel:
     """An IFC model under construction (one building, metre units)."""
 
@@ -37,6 +48,8 @@ class FrameModel:
         self.fixed_ids = fixed_ids
         self._count = 0
         m = self.model = ifcopenshell.api.project.create_file(version=schema)
+        if schema == "IFC2X3":
+            _owner(m)
         project = self._entity("IfcProject", name)
         ifcopenshell.api.unit.assign_unit(m, length={"is_metric": True, "raw": "METERS"})
         model3d = ifcopenshell.api.context.add_context(m, context_type="Model")
@@ -94,8 +107,8 @@ class FrameModel:
             )
         return element
 
-    def column(self, storey, x: float, y: float, z0: float, height: float,
-               section: float = 0.3, name: str = "column", ifc_class: str = "IfcColumn"):  # fmt: skip
+    def column(self, storey, x: float, y: float, z0: float, height: float, section: float = 0.3,
+               name: str = "column", ifc_class: str = "IfcColumn"):  # fmt: skip
         """A column of square ``section`` standing at ``(x, y, z0)``, ``height`` metres tall."""
         return self._extrusion(ifc_class, name, storey, (x, y, z0), (0, 0, 1), (1, 0, 0),
                                section, section, height)  # fmt: skip

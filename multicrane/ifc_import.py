@@ -77,7 +77,7 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
     if not members:
         raise IfcImportError(f"{path}: no column or beam could be placed on the grid")
     panel_idx = [i for i, p in enumerate(building.parts) if p.kind in ("slab", "wall")]
-    taken = {c for i in members for c in building.parts[i].cells()}
+    taken = {c: i for i in members for c in building.parts[i].cells()}
     obstacles: list[Box] = []
     obstacle_parts: list[int] = []
     panel_specs: list[tuple[int, Part]] = []
@@ -88,15 +88,15 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
             skipped.append(Skipped(e.ifc_type, e.global_id, e.name, "a panel (--panels skip)"))
         elif panels == "obstacles":
             cells = [c for c in part.cells() if c not in taken]
-            taken.update(cells)
+            taken.update(dict.fromkeys(cells, i))
             obstacles += _boxes(cells)
             obstacle_parts.append(i)
         else:
-            reason = _panel_problem(part, taken)
+            reason = _panel_problem(building, part, taken)
             if reason is not None:
                 skipped.append(Skipped(e.ifc_type, e.global_id, e.name, reason))
                 continue
-            taken.update(part.cells())
+            taken.update(dict.fromkeys(part.cells(), i))
             panel_specs.append((i, part))
 
     ids = _ids(building, members + [i for i, _ in panel_specs])
@@ -147,14 +147,16 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
     return result
 
 
-def _panel_problem(part: Part, taken: set[Cell]) -> str | None:
+def _panel_problem(b: Building, part: Part, taken: dict[Cell, int]) -> str | None:
     size = [h - lo + 1 for lo, h in zip(part.lo, part.hi, strict=True)]
     if min(size) > 1:
         return f"a panel thicker than one cell at the cell size ({size[0]} x {size[1]} x {size[2]})"
     if sorted(size)[1] == 1:
         return "a panel narrower than two cells at the cell size (use a column or beam)"
-    if any(c in taken for c in part.cells()):
-        return "a panel overlapping another component's target at the cell size"
+    clash = next((taken[c] for c in part.cells() if c in taken), None)
+    if clash is not None:
+        e = b.parts[clash].element
+        return f"a panel overlapping {e.ifc_type} {e.global_id} {e.name!r} at the cell size"
     return None
 
 
@@ -230,25 +232,26 @@ def _panel_yard(b: Building, specs: list[tuple[int, Part]], ids: dict[int, str],
     X = max(X, 2 * margin + max(a for a, _ in sides))
     x, y, row = margin, Y + margin, 0
     out: list[PanelSpec] = []
-    for (i, p), (a, b) in zip(specs, sides, strict=True):
+    for (i, p), (a, w) in zip(specs, sides, strict=True):
         if x + a > X - margin:
             x, y, row = margin, y + row + 1, 0
-        initial = ((x, y, 1), (x + a - 1, y + b - 1, 1))
+        initial = ((x, y, 1), (x + a - 1, y + w - 1, 1))
         target = (_move(p.lo, ox, oy), _move(p.hi, ox, oy))
         supports = _panel_supports(b, p, list(ids), ids)
         out.append(PanelSpec(ids[i], p.kind, initial, target, supports))
-        x, row = x + a + 1, max(row, b)
+        x, row = x + a + 1, max(row, w)
     return out, (X, y + row + margin, H)
 
 
-def _panel_supports(b: Building, p: Part, accepted: list[int], ids: dict[int, str]) -> tuple[str, ...]:
+def _panel_supports(b: Building, p: Part, accepted: list[int],
+                    ids: dict[int, str]) -> tuple[str, ...]:  # fmt: skip
     """Ids of the accepted parts right under panel ``p`` that share a face with it."""
     cells = p.cells()
     bottom = min(c[2] for c in cells)
     out = []
     for j in accepted:
         other = b.parts[j]
-        if other is not p and max(other.lo[2], other.hi[2]) < bottom:
-            if geometry.touches(cells, other.cells()):
-                out.append(ids[j])
+        below = other is not p and max(other.lo[2], other.hi[2]) < bottom
+        if below and geometry.touches(cells, other.cells()):
+            out.append(ids[j])
     return tuple(out)

@@ -121,9 +121,9 @@ def snap(elements: list[Element], cell: float) -> Building:
             b.skipped.append(_skip(e, "stands on nothing: no column below it and not at the "
                                       "lowest column base"))  # fmt: skip
             continue
-        if add(Part(e, "column", (x, y, bottom), (x, y, top))) is not None and bottom == 1:
-            if (x, y) not in b.foundations:
-                b.foundations.append((x, y))
+        placed = add(Part(e, "column", (x, y, bottom), (x, y, top))) is not None
+        if placed and bottom == 1 and (x, y) not in b.foundations:
+            b.foundations.append((x, y))
     column_cells = dict(occupied)
 
     # Beams: cut at column targets, each part resting on the columns it touches.

@@ -42,7 +42,7 @@ def _cells(pose: tuple[Cell, Cell]) -> str:
 
 
 def _comment(text: str) -> str:
-    return "# " + " ".join(text.split()) if text.strip() else "#"  # one line, whatever the names hold
+    return "# " + " ".join(text.split())  # one line, whatever the names hold
 
 
 def describe(b: Building, schema: str, file_name: str, n_skipped: int,
@@ -56,9 +56,9 @@ def describe(b: Building, schema: str, file_name: str, n_skipped: int,
     return (
         f"Imported from the {schema} model {file_name} by multicrane import-ifc, cell "
         f"{b.grid.cell:g} m; model point ({ox:g}, {oy:g}, {oz:g}) m is the lower corner of "
-        f"site cell ({offset[0]}, {offset[1]}, 1). Storeys: {names or 'none'}. Component ids: c (column), "
-        f"b (beam), s (slab), w (wall), then the storey number (0: in no storey) and a running "
-        f"number. {n_skipped} element(s) skipped (listed in the comments of the file)."
+        f"site cell ({offset[0]}, {offset[1]}, 1). Storeys: {names or 'none'}. Component ids: "
+        f"c (column), b (beam), s (slab), w (wall), then the storey number (0: in no storey) "
+        f"and a running number. {n_skipped} element(s) skipped (listed in the file's comments)."
     )
 
 
