@@ -7,8 +7,8 @@ two points of its axis: a beam, a member, a slanted brace) and ``box`` (a slab, 
 given by two opposite corners). Every element is an extruded rectangle placed with a
 4 x 4 matrix, as authoring tools write them. ``frame`` builds a whole column grid with a
 beam between every pair of neighbouring columns at the top of each storey. The models are
-deterministic except for their GlobalIds, which ``ifcopenshell`` draws at random; pass
-``fixed_ids=True`` for repeatable files (the shipped example).
+deterministic except for their GlobalIds (drawn at random by ``ifcopenshell``) and the
+header's time stamp; ``fixed_ids=True`` fixes both (the shipped example).
 """
 
 from __future__ import annotations
@@ -46,7 +46,6 @@ class FrameModel:
 
     def __init__(self, name: str = "frame", schema: str = "IFC4", fixed_ids: bool = False):
         self.fixed_ids = fixed_ids
-        self._count = 0
         m = self.model = ifcopenshell.api.project.create_file(version=schema)
         if schema == "IFC2X3":
             _owner(m)
@@ -63,12 +62,7 @@ class FrameModel:
         ifcopenshell.api.aggregate.assign_object(m, relating_object=site, products=[self.building])
 
     def _entity(self, ifc_class: str, name: str):
-        entity = ifcopenshell.api.root.create_entity(self.model, ifc_class=ifc_class, name=name)
-        if self.fixed_ids:
-            self._count += 1
-            digest = hashlib.sha256(f"{ifc_class}:{name}:{self._count}".encode()).hexdigest()
-            entity.GlobalId = ifcopenshell.guid.compress(digest[:32])
-        return entity
+        return ifcopenshell.api.root.create_entity(self.model, ifc_class=ifc_class, name=name)
 
     def storey(self, name: str, elevation: float):
         """A new building storey at ``elevation`` metres."""
@@ -133,27 +127,40 @@ class FrameModel:
                                (0, 0, 1), (1, 0, 0), size[0], size[1], size[2])  # fmt: skip
 
     def write(self, path: str | Path) -> Path:
+        """Write the model; with ``fixed_ids`` every GlobalId is derived from the entity's
+        number and the header's time stamp is fixed, so the same model gives the same bytes."""
+        if self.fixed_ids:
+            for e in self.model.by_type("IfcRoot"):
+                digest = hashlib.sha256(f"{e.is_a()}#{e.id()}".encode()).hexdigest()
+                e.GlobalId = ifcopenshell.guid.compress(digest[:32])
+            self.model.header.file_name.time_stamp = "2026-01-01T00:00:00"
         self.model.write(str(path))
         return Path(path)
 
 
 def frame(bays_x: int, bays_y: int, storeys: int, span: float = 4.0, height: float = 3.0,
           section: float = 0.3, schema: str = "IFC4", fixed_ids: bool = False,
-          name: str = "frame") -> FrameModel:  # fmt: skip
+          name: str = "frame", origin: Point = (0.0, 0.0, 0.0)) -> FrameModel:  # fmt: skip
     """A steel frame: ``(bays_x + 1) x (bays_y + 1)`` columns ``span`` metres apart (one row
     when ``bays_y`` is 0: a portal frame), one column per position and storey, and a beam
-    (top flush with the column tops) between each pair of neighbouring columns per storey."""
+    (top flush with the column tops) between each pair of neighbouring columns per storey;
+    the first column stands at ``origin``."""
     f = FrameModel(name=name, schema=schema, fixed_ids=fixed_ids)
-    points = [(i * span, j * span) for j in range(bays_y + 1) for i in range(bays_x + 1)]
+    ox, oy, oz = origin
+    grid = [(i, j) for j in range(bays_y + 1) for i in range(bays_x + 1)]
+
+    def at(i: int, j: int) -> tuple[float, float]:
+        return (ox + i * span, oy + j * span)
+
     for k in range(storeys):
-        z0, top = k * height, (k + 1) * height
+        z0, top = oz + k * height, oz + (k + 1) * height
         st = f.storey(f"Level {k + 1}", z0)
-        for n, (x, y) in enumerate(points, 1):
-            f.column(st, x, y, z0, height, section, name=f"C{k + 1}.{n}")
+        for n, (i, j) in enumerate(grid, 1):
+            f.column(st, *at(i, j), z0, height, section, name=f"C{k + 1}.{n}")
         axis_z = top - section / 2
-        pairs = [(p, (p[0] + span, p[1])) for p in points if (p[0] + span, p[1]) in points]
-        pairs += [(p, (p[0], p[1] + span)) for p in points if (p[0], p[1] + span) in points]
+        pairs = [((i, j), (i + 1, j)) for i, j in grid if i < bays_x]
+        pairs += [((i, j), (i, j + 1)) for i, j in grid if j < bays_y]
         for n, (a, b) in enumerate(pairs, 1):
-            f.linear(st, (a[0], a[1], axis_z), (b[0], b[1], axis_z), section, section,
+            f.linear(st, (*at(*a), axis_z), (*at(*b), axis_z), section, section,
                      name=f"B{k + 1}.{n}")  # fmt: skip
     return f

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 pytest.importorskip("ifcopenshell")
 
@@ -249,3 +251,37 @@ def test_shipped_example_is_the_import_of_the_shipped_model():
     s = load_scenario(ROOT / "scenarios" / "ifc" / "example-frame.toml")
     env = multicrane.parallel_env(s)
     assert run_episode(env, PrioritizedPlanner(env), seed=0)["success"]
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])  # fmt: skip
+@given(
+    bays=st.tuples(st.integers(1, 2), st.integers(0, 2), st.integers(1, 2)),
+    span=st.sampled_from([2.0, 3.0, 4.5]),
+    height=st.sampled_from([2.0, 3.0, 3.5]),
+    cell=st.sampled_from([0.5, 1.0]),
+    origin=st.tuples(*[st.floats(-50, 50, allow_nan=False)] * 3),
+)
+def test_random_frames_import_and_do_not_depend_on_where_the_model_lies(
+    tmp_path, bays, span, height, cell, origin
+):
+    """Any small frame imports, loads and keeps every cell inside its element; moving the
+    whole model changes nothing but the model point named in the description."""
+    nx, ny, storeys = bays
+    here = import_ifc(frame(nx, ny, storeys, span, height).write(tmp_path / "a.ifc"), cell=cell)
+    moved = frame(nx, ny, storeys, span, height, origin=origin).write(tmp_path / "b.ifc")
+    there = import_ifc(moved, cell=cell)
+    a, b = here.scenario, there.scenario
+    per_storey = (nx + 1) * (ny + 1) + nx * (ny + 1) + ny * (nx + 1)  # columns, beams
+    assert a.n_components == per_storey * storeys
+    assert [(c.kind, c.target, c.initial, c.supports) for c in a.components] == [
+        (c.kind, c.target, c.initial, c.supports) for c in b.components
+    ]
+    assert (a.size, a.foundations, a.order) == (b.size, b.foundations, b.order)
+    by_id = {cid: there.building.parts[i].element for i, cid in there.ids.items()}
+    for c in b.components:
+        e = by_id[c.id]
+        for cell_ in geometry.pose_cells(*c.target):
+            lo, hi = there.grid.cell_box(cell_)
+            assert all(e.lo[k] - cell - 1e-6 <= lo[k] and hi[k] <= e.hi[k] + cell + 1e-6
+                       for k in range(3))  # fmt: skip
