@@ -107,8 +107,9 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
     if height > MAX_HEIGHT:
         raise IfcImportError(f"{path}: the site would be {height} cells high at cell {cell} m "
                              f"(at most {MAX_HEIGHT}): choose a larger --cell")  # fmt: skip
-    width = max(max(p.hi[0] for p in building.parts), 0) + 1
-    depth = max(max(p.hi[1] for p in building.parts), 0) + 1
+    kept = [building.parts[i] for i in members + obstacle_parts + [i for i, _ in panel_specs]]
+    width = max(p.hi[0] for p in kept) + 1  # the plan extent of what is imported
+    depth = max(p.hi[1] for p in kept) + 1
     params = {"bays_x": width - 1, "bays_y": depth - 1, "span": 1, "storeys": 1,
               "column_height": height - 1, "yard": yard, "random_start": False,
               "obstacles": 0}  # fmt: skip
