@@ -24,11 +24,14 @@ def write_report(
     docs_file: Path | None = None,
     plots: bool = True,
     log: Callable[[str], None] = print,
+    random: Mapping[str, float] | None = None,
 ) -> list[aggregate.Cell]:
     """Aggregate the sweep's result files and write ``<out>/report.md`` (plots in
     ``<out>/plots``), ``<out>/summary.json`` and, with ``docs_file``, the sweep's section of
     that page (plots beside it in ``benchmark/``). ``labels``: as ``page.markdown``; the
-    versions and compute time of the runs are added. ``plots`` needs matplotlib."""
+    versions and compute time of the runs are added. ``plots`` needs matplotlib.
+    ``random``: the random policy's mean return per configuration on the evaluation episodes
+    (``scores.random_returns``), for the normalised score; None leaves those columns out."""
     results, problems = aggregate.collect(sweep)
     cells = aggregate.make_cells(sweep, results)
     labels = dict(labels)
@@ -47,13 +50,13 @@ def write_report(
 
             pngs = write_plots(sweep, results, plot_dir, sweep.name)
         links = [os.path.relpath(p, target.parent) for p in pngs]
-        text = page.markdown(sweep, cells, labels, links, problems, heading=heading)
+        text = page.markdown(sweep, cells, labels, links, problems, heading=heading, random=random)
         if target == report_path:
             write_atomic(target, _line_end(text))
         else:
             fill_section(target, sweep.name, text)
         log(f"wrote {target}" + (f" and {len(pngs)} plot(s) in {plot_dir}" if pngs else ""))
-    aggregate.write_summary(sweep.out / "summary.json", sweep, cells)
+    aggregate.write_summary(sweep.out / "summary.json", sweep, cells, random)
     log(f"wrote {sweep.out / 'summary.json'}")
     return cells
 

@@ -339,6 +339,16 @@ def cmd_status(args: argparse.Namespace) -> int:
     return show_status(sweep_from(args), args.workers or os.cpu_count() or 1)
 
 
+def random_baseline(sweep: Sweep) -> dict[str, float]:
+    """The uniform random policy's mean return per configuration on the final evaluation's
+    episodes, for the normalised score (``multicrane.benchmark.scores``)."""
+    import policies
+    from multicrane.benchmark.scores import random_returns
+
+    episodes = sweep.final_episodes or sweep.eval_episodes
+    return random_returns(sweep.configs, episodes, policies.factory("random", paper=True))
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     sweep = sweep_from(args)
     if not sweep.out.is_dir():
@@ -361,9 +371,11 @@ def cmd_report(args: argparse.Namespace) -> int:
         f"; {labels['date']}" if labels.get("date") else ""
     )
     labels.setdefault("machine", machine())
-    cells = write_report(sweep, labels, docs_file, plots=not args.no_plots)
+    cells = write_report(
+        sweep, labels, docs_file, plots=not args.no_plots, random=random_baseline(sweep)
+    )
     finished = sum(c.n for c in cells)
     total = sum(len(c.seeds) for c in cells)
     if finished < total:
-        print(f"note: {total - finished} of {total} runs have no result yet (shown as missing)")
+        print(f"note: {total - finished} of {total} runs have no result yet (shown as pending)")
     return 0
