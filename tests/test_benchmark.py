@@ -559,6 +559,7 @@ def test_profiles_and_a_missing_extra(tmp_path, capsys, monkeypatch):
     assert [line.split(":")[0] for line in capsys.readouterr().out.splitlines()][::3] == [
         "smoke",
         "quick",
+        "standard",
         "paper",
     ]
     sweep = small_sweep(tmp_path)

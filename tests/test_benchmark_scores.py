@@ -12,6 +12,7 @@ from multicrane.benchmark import aggregate, page, scores
 from multicrane.benchmark.estimate import estimate_seconds, estimate_wall
 from multicrane.benchmark.profiles import PROFILES, make_sweep
 from multicrane.benchmark.reference import TABLE_I
+from multicrane.benchmark.report import write_report
 from multicrane.paper_env import PAPER_CONFIGS
 from multicrane.training.config import TrainConfig
 from tests.test_benchmark import fake_result
@@ -109,17 +110,23 @@ def test_report_columns_on_a_fake_sweep(tmp_path):
     # which entries are whose, and where they were measured
     assert scores.OURS in text and scores.PAPERS in text
     assert "E1S1 -182.00" in text  # the random returns used
+    assert "Cells that miss a target (1): E1S1 MaskablePPO: not above" in text
 
 
 def test_summary_json_has_the_new_columns(tmp_path):
-    sweep, _, cells = _fake_sweep(tmp_path)
-    data = aggregate.summary(sweep, cells, {"E1S1": -182.0, "E3S4": -578.2})
+    sweep, _, _ = _fake_sweep(tmp_path)
+    random = {"E1S1": -182.0, "E3S4": -578.2}
+    write_report(sweep, {}, plots=False, log=lambda _: None, random=random)
+    data = json.loads((sweep.out / "summary.json").read_text())
     by = {(c["config"], c["algo"]): c for c in data["cells"]}
     e1 = by[("E1S1", "double_dqn")]
     assert e1["random_mean"] == -182.0 and e1["paper_best"] == -4.27 and e1["misses"] == []
     assert e1["normalised_mean"] == pytest.approx((180 + 179 + 178) / 3 / 180)
     assert by[("E3S4", "maskable_ppo")]["misses"] is None  # pending: no verdict
-    assert "normalised_mean" not in aggregate.summary(sweep, cells)["cells"][0]
+    assert "pending" in (sweep.out / "report.md").read_text()
+    write_report(sweep, {}, plots=False, log=lambda _: None)  # no random: no new columns
+    data = json.loads((sweep.out / "summary.json").read_text())
+    assert "normalised_mean" not in data["cells"][0]
 
 
 def test_random_returns_on_the_evaluation_episodes():

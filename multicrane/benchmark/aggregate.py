@@ -164,18 +164,13 @@ def make_cells(sweep: Sweep, results: Results) -> list[Cell]:
     ]
 
 
-def summary(
-    sweep: Sweep, cells: Sequence[Cell], random: Mapping[str, float] | None = None
-) -> dict[str, Any]:
-    """The aggregated numbers as one JSON-ready dict; with ``random`` (the random policy's
-    mean return per configuration) each cell also gets ``scores.summary_rows``' columns."""
-    rows = [c.to_dict() for c in cells]
-    if random is not None:
-        from multicrane.benchmark.scores import summary_rows
-
-        for row, extra in zip(rows, summary_rows(cells, random), strict=True):
-            row.update({k: v for k, v in extra.items() if k not in ("config", "algo")})
-    return {"sweep": sweep.to_dict(), "metric": METRIC, "cells": rows}
+def summary(sweep: Sweep, cells: Sequence[Cell]) -> dict[str, Any]:
+    """The aggregated numbers as one JSON-ready dict."""
+    return {
+        "sweep": sweep.to_dict(),
+        "metric": METRIC,
+        "cells": [c.to_dict() for c in cells],
+    }
 
 
 METRIC = (
@@ -185,8 +180,6 @@ METRIC = (
 )
 
 
-def write_summary(
-    path: Path, sweep: Sweep, cells: Sequence[Cell], random: Mapping[str, float] | None = None
-) -> None:
+def write_summary(path: Path, sweep: Sweep, cells: Sequence[Cell]) -> None:
     """``summary`` as ``summary.json``."""
-    write_json_atomic(path, summary(sweep, cells, random), indent=1)
+    write_json_atomic(path, summary(sweep, cells), indent=1)

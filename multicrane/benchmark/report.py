@@ -11,7 +11,8 @@ from pathlib import Path
 
 from multicrane.benchmark import aggregate, page
 from multicrane.benchmark.profiles import Sweep
-from multicrane.files import write_atomic
+from multicrane.benchmark.scores import summary_rows
+from multicrane.files import write_atomic, write_json_atomic
 
 BEGIN = "<!-- benchmark:{name}:begin"
 END = "<!-- benchmark:{name}:end -->"
@@ -56,7 +57,11 @@ def write_report(
         else:
             fill_section(target, sweep.name, text)
         log(f"wrote {target}" + (f" and {len(pngs)} plot(s) in {plot_dir}" if pngs else ""))
-    aggregate.write_summary(sweep.out / "summary.json", sweep, cells, random)
+    data = aggregate.summary(sweep, cells)
+    if random is not None:  # the new columns of each cell (scores.summary_rows)
+        for row, extra in zip(data["cells"], summary_rows(cells, random), strict=True):
+            row.update({k: v for k, v in extra.items() if k not in ("config", "algo")})
+    write_json_atomic(sweep.out / "summary.json", data, indent=1)
     log(f"wrote {sweep.out / 'summary.json'}")
     return cells
 

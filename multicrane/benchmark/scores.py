@@ -148,6 +148,11 @@ def score_table(
     rule = "|---|---|" + "|".join(["---:"] * (len(HEADER) - 2)) + "|"
     lines = ["| " + " | ".join(HEADER) + " |", rule]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
+    missed = miss_list(cells, random)
+    lines += [
+        "",
+        f"Cells that miss a target ({len(missed)}): " + ("; ".join(missed) or "none") + ".",
+    ]
     rnd = [f"{c} {random[c]:.2f}" for c in configs if c in random]
     meaning = ", ".join(f'"{k}" = {v}' for k, v in PAPER_MEANING.items() if k != v)
     lines += [
@@ -163,6 +168,16 @@ def score_table(
         f"{NORMALISED_TARGET} in Env1 and Env2; *pending*: no seed finished yet.",
     ]
     return lines
+
+
+def miss_list(cells: Sequence[Cell], random: Mapping) -> list[str]:
+    """One line per finished cell that misses a target: ``E1S1 MaskablePPO: why``."""
+    out = []
+    for cell in cells:
+        if cell.n and (missed := misses(cell, random.get(cell.config))):
+            so_far = f" ({cell.n}/{len(cell.seeds)} seeds so far)" if cell.missing else ""
+            out.append(f"{cell.config} {LABELS[cell.algo]}: {'; '.join(missed)}{so_far}")
+    return out
 
 
 def summary_rows(cells: Sequence[Cell], random: Mapping) -> list[dict[str, Any]]:
