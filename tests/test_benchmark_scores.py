@@ -81,8 +81,8 @@ def _row(text: str, config: str, label: str) -> list[str]:
 
 def test_report_columns_on_a_fake_sweep(tmp_path):
     sweep, _, cells = _fake_sweep(tmp_path)
-    random = {"E1S1": -182.0, "E3S4": -578.2}
-    text = page.markdown(sweep, cells, {}, random=random)
+    base = {"E1S1": scores.Baseline(-182.0, -2.0), "E3S4": scores.Baseline(-578.2, 3.8)}
+    text = page.markdown(sweep, cells, {}, baseline=base)
     assert "(1 of 4 cells pending)" in text
     row = _row(text, "E1S1", "double DQN")
     assert row[2] == "3/3" and row[3] == "-3.00 ± 0.58"
@@ -106,7 +106,8 @@ def test_report_columns_on_a_fake_sweep(tmp_path):
     assert row[2] == "1/3" and row[3] == "-50.00 ± n/a" and row[4] == "n/a"
     assert row[9] == "-140.18 ± 7.48\\* (PPO)" and row[10] == "met (so far)"
     row = _row(text, "E3S4", "MaskablePPO")
-    assert row[2] == "0/3" and row[3:9] == ["pending"] * 6 and row[10] == "pending"
+    assert row[2] == "0/3" and row[3:6] == ["pending"] * 3 and row[10] == "pending"
+    assert row[6] == "3.80" and row[7:9] == ["pending"] * 2  # the optimum, known already
     # which entries are whose, and where they were measured
     assert scores.OURS in text and scores.PAPERS in text
     assert "E1S1 -182.00" in text  # the random returns used
@@ -115,8 +116,8 @@ def test_report_columns_on_a_fake_sweep(tmp_path):
 
 def test_summary_json_has_the_new_columns(tmp_path):
     sweep, _, _ = _fake_sweep(tmp_path)
-    random = {"E1S1": -182.0, "E3S4": -578.2}
-    write_report(sweep, {}, plots=False, log=lambda _: None, random=random)
+    base = {"E1S1": scores.Baseline(-182.0, -2.0), "E3S4": scores.Baseline(-578.2, 3.8)}
+    write_report(sweep, {}, plots=False, log=lambda _: None, baseline=base)
     data = json.loads((sweep.out / "summary.json").read_text())
     by = {(c["config"], c["algo"]): c for c in data["cells"]}
     e1 = by[("E1S1", "double_dqn")]
@@ -129,13 +130,14 @@ def test_summary_json_has_the_new_columns(tmp_path):
     assert "normalised_mean" not in data["cells"][0]
 
 
-def test_random_returns_on_the_evaluation_episodes():
+def test_baselines_on_the_evaluation_episodes():
     calls = []
 
     def make_policy(env, seed):
         calls.append(seed)
         return lambda obs: 4  # always up: blocked moves cost -1 each, 100 steps
 
-    out = scores.random_returns(["E1S1"], 2, make_policy)
+    out = scores.baselines(["E2S2"], 2, make_policy)
     assert calls == [1_000_000, 1_000_001]
-    assert out == {"E1S1": pytest.approx(-100.0)}
+    # E2S2 has fixed starts: its optimum is -4.83 in every episode (docs/paper-results.md)
+    assert out == {"E2S2": scores.Baseline(pytest.approx(-100.0), pytest.approx(-4.83, abs=0.01))}

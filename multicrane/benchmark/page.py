@@ -19,6 +19,7 @@ from multicrane.benchmark.reference import (
     SIGN_FIXED,
     table_i,
 )
+from multicrane.benchmark.scores import Baseline, score_table
 
 
 def _num(value: float | None, digits: int = 2) -> str:
@@ -127,15 +128,15 @@ def markdown(
     plots: Sequence[str] = (),
     problems: Sequence[str] = (),
     heading: str = "###",
-    random: Mapping[str, float] | None = None,
+    baseline: Mapping[str, Baseline] | None = None,
 ) -> str:
     """The report: how the numbers were made, then the tables and the learning curves.
 
     ``labels``: ``run_command``, ``report_command``, ``date``, ``machine``, ``versions``,
     ``wall`` (free text, shown when present). ``plots``: image paths relative to the page.
-    ``random``: the random policy's mean return per configuration on the evaluation
-    episodes; with it, the page opens with ``scores.score_table`` (interval, normalised
-    score, Table I best, targets) and says which cells are still pending."""
+    ``baseline``: each configuration's random and optimal returns on the evaluation
+    episodes (``scores.baselines``); with it, the page opens with ``scores.score_table``
+    (interval, normalised score, Table I best, targets) and says which cells are pending."""
     total = len(sweep.configs) * len(sweep.algos) * len(sweep.seeds)
     finished = sum(c.n for c in cells)
     seeds = len(sweep.seeds)
@@ -181,15 +182,13 @@ def markdown(
         out.append(f"- Runs without a result yet (pending, not in the means): {shown}.")
     for problem in problems:
         out.append(f"- Unusable result file: {problem}")
-    if random is not None:
-        from multicrane.benchmark.scores import score_table
-
+    if baseline is not None:
         pending = sum(1 for c in cells if c.n == 0)
         out += [
             "",
             f"Per configuration and algorithm ({pending} of {len(cells)} cells pending):",
             "",
-            *score_table(sweep.configs, sweep.algos, cells, random),
+            *score_table(sweep.configs, sweep.algos, cells, baseline),
             "",
             "The same final returns beside every Table I column:",
         ]

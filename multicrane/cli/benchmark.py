@@ -340,14 +340,14 @@ def cmd_status(args: argparse.Namespace) -> int:
     return show_status(sweep_from(args), args.workers or os.cpu_count() or 1)
 
 
-def random_baseline(sweep: Sweep) -> dict[str, float]:
-    """The uniform random policy's mean return per configuration on the final evaluation's
-    episodes, for the normalised score (``multicrane.benchmark.scores``)."""
+def baseline(sweep: Sweep) -> dict:
+    """The uniform random policy's and the exact planner's mean return per configuration on
+    the final evaluation's episodes, for the normalised score (``multicrane.benchmark.scores``)."""
     import policies
-    from multicrane.benchmark.scores import random_returns
+    from multicrane.benchmark.scores import baselines
 
     episodes = sweep.final_episodes or sweep.eval_episodes
-    return random_returns(sweep.configs, episodes, policies.factory("random", paper=True))
+    return baselines(sweep.configs, episodes, policies.factory("random", paper=True))
 
 
 def cmd_report(args: argparse.Namespace) -> int:
@@ -373,7 +373,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     )
     labels.setdefault("machine", machine())
     cells = write_report(
-        sweep, labels, docs_file, plots=not args.no_plots, random=random_baseline(sweep)
+        sweep, labels, docs_file, plots=not args.no_plots, baseline=baseline(sweep)
     )
     finished = sum(c.n for c in cells)
     total = sum(len(c.seeds) for c in cells)
