@@ -23,8 +23,8 @@ from multicrane.stats import ci95, mean_sem
 
 NORMALISED_TARGET = 0.95
 NORMALISED_ENVS = ("E1", "E2")  # where the normalised-score target applies
-OURS = "ours: this project's corrected environment (`multicrane.PaperAssemblyEnv`)"
-PAPERS = "the paper: Table I, its public code's environment (1,000,000 steps, 15 seeds)"
+OURS = "this project's corrected environment (`multicrane.PaperAssemblyEnv`)"
+PAPERS = "Table I of the paper, measured in its public code's environment (1M steps, 15 seeds)"
 
 
 @dataclass(frozen=True)
@@ -181,7 +181,7 @@ def score_table(
     meaning = ", ".join(f'"{k}" = {v}' for k, v in PAPER_MEANING.items() if k != v)
     lines += [
         "",
-        f"Entries marked *ours* were measured on {OURS}; the *Table I best* column is "
+        f"Entries marked *ours* were measured in {OURS}; the *Table I best* column is "
         f"{PAPERS}, whose episodes could be cut short and whose S4 obstacles blocked nothing "
         f"(`docs/paper-differences.md`), so it is beside ours for orientation. Paper columns: "
         f"{meaning}. *95 % interval*: Student's t over seeds. *normalised score*: (return − "
