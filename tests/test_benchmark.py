@@ -205,7 +205,7 @@ def test_missing_runs_are_reported_not_averaged():
     assert page._ours(cell, best=False) == "-3.00 ± n/a (1/2 seeds)"
     empty = aggregate.make_cell("E1S2", "a2c", {0: None, 1: None})
     assert empty.mean is None and empty.gap is None and empty.success_rate is None
-    assert page._ours(empty, best=False) == "missing"
+    assert page._ours(empty, best=False) == "pending"
 
 
 def test_markdown_report_from_result_files(tmp_path):
@@ -559,6 +559,7 @@ def test_profiles_and_a_missing_extra(tmp_path, capsys, monkeypatch):
     assert [line.split(":")[0] for line in capsys.readouterr().out.splitlines()][::3] == [
         "smoke",
         "quick",
+        "standard",
         "paper",
     ]
     sweep = small_sweep(tmp_path)

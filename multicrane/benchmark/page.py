@@ -19,6 +19,7 @@ from multicrane.benchmark.reference import (
     SIGN_FIXED,
     table_i,
 )
+from multicrane.benchmark.scores import Baseline, score_table
 
 
 def _num(value: float | None, digits: int = 2) -> str:
@@ -27,7 +28,7 @@ def _num(value: float | None, digits: int = 2) -> str:
 
 def _ours(cell: Cell, best: bool) -> str:
     if cell.n == 0:
-        return "missing"
+        return "pending"
     text = f"{_num(cell.mean)} ± {_num(cell.sem)}"
     if best:
         text = f"**{text}**"
@@ -96,11 +97,11 @@ def success_gap_table(sweep: Sweep, cells: Sequence[Cell]) -> list[str]:
         line = [config, _num(_optimal(row))]
         for algo in sweep.algos:
             rate = row[algo].success_rate
-            line.append("missing" if rate is None else f"{rate:.0%}")
+            line.append("pending" if rate is None else f"{rate:.0%}")
         for algo in sweep.algos:
             cell = row[algo]
             if cell.gap is None:
-                line.append("missing" if cell.n == 0 else "n/a")
+                line.append("pending" if cell.n == 0 else "n/a")
             else:
                 pct = "" if cell.gap_pct is None else f" ({cell.gap_pct:.0f} %)"
                 line.append(f"{cell.gap:.2f}{pct}")
@@ -115,7 +116,7 @@ def training_table(sweep: Sweep, cells: Sequence[Cell]) -> list[str]:
         line = [config]
         for algo in sweep.algos:
             mean, sem = row[algo].train_return
-            line.append("missing" if mean is None else f"{_num(mean)} ± {_num(sem)}")
+            line.append("pending" if mean is None else f"{_num(mean)} ± {_num(sem)}")
         rows.append(line)
     return _table(header, "---:", rows)
 
@@ -127,11 +128,15 @@ def markdown(
     plots: Sequence[str] = (),
     problems: Sequence[str] = (),
     heading: str = "###",
+    baseline: Mapping[str, Baseline] | None = None,
 ) -> str:
     """The report: how the numbers were made, then the tables and the learning curves.
 
     ``labels``: ``run_command``, ``report_command``, ``date``, ``machine``, ``versions``,
-    ``wall`` (free text, shown when present). ``plots``: image paths relative to the page."""
+    ``wall`` (free text, shown when present). ``plots``: image paths relative to the page.
+    ``baseline``: each configuration's random and optimal returns on the evaluation
+    episodes (``scores.baselines``); with it, the page opens with ``scores.score_table``
+    (interval, normalised score, Table I best, targets) and says which cells are pending."""
     total = len(sweep.configs) * len(sweep.algos) * len(sweep.seeds)
     finished = sum(c.n for c in cells)
     seeds = len(sweep.seeds)
@@ -174,9 +179,19 @@ def markdown(
         shown = "; ".join(missing[:12])
         if len(missing) > 12:
             shown += f"; and {len(missing) - 12} more"
-        out.append(f"- Missing runs (not in the means): {shown}.")
+        out.append(f"- Runs without a result yet (pending, not in the means): {shown}.")
     for problem in problems:
         out.append(f"- Unusable result file: {problem}")
+    if baseline is not None:
+        pending = sum(1 for c in cells if c.n == 0)
+        out += [
+            "",
+            f"Per configuration and algorithm ({pending} of {len(cells)} cells pending):",
+            "",
+            *score_table(sweep.configs, sweep.algos, cells, baseline),
+            "",
+            "The same final returns beside every Table I column:",
+        ]
     out += ["", *return_table(sweep, cells), ""]
     notes = []
     if "double_dqn" in sweep.algos:

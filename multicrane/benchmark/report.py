@@ -11,7 +11,8 @@ from pathlib import Path
 
 from multicrane.benchmark import aggregate, page
 from multicrane.benchmark.profiles import Sweep
-from multicrane.files import write_atomic
+from multicrane.benchmark.scores import Baseline, summary_rows
+from multicrane.files import write_atomic, write_json_atomic
 
 BEGIN = "<!-- benchmark:{name}:begin"
 END = "<!-- benchmark:{name}:end -->"
@@ -24,11 +25,14 @@ def write_report(
     docs_file: Path | None = None,
     plots: bool = True,
     log: Callable[[str], None] = print,
+    baseline: Mapping[str, Baseline] | None = None,
 ) -> list[aggregate.Cell]:
     """Aggregate the sweep's result files and write ``<out>/report.md`` (plots in
     ``<out>/plots``), ``<out>/summary.json`` and, with ``docs_file``, the sweep's section of
     that page (plots beside it in ``benchmark/``). ``labels``: as ``page.markdown``; the
-    versions and compute time of the runs are added. ``plots`` needs matplotlib."""
+    versions and compute time of the runs are added. ``plots`` needs matplotlib.
+    ``baseline``: each configuration's random and optimal returns on the evaluation episodes
+    (``scores.baselines``), for the normalised score; None leaves those columns out."""
     results, problems = aggregate.collect(sweep)
     cells = aggregate.make_cells(sweep, results)
     labels = dict(labels)
@@ -47,13 +51,19 @@ def write_report(
 
             pngs = write_plots(sweep, results, plot_dir, sweep.name)
         links = [os.path.relpath(p, target.parent) for p in pngs]
-        text = page.markdown(sweep, cells, labels, links, problems, heading=heading)
+        text = page.markdown(
+            sweep, cells, labels, links, problems, heading=heading, baseline=baseline
+        )
         if target == report_path:
             write_atomic(target, _line_end(text))
         else:
             fill_section(target, sweep.name, text)
         log(f"wrote {target}" + (f" and {len(pngs)} plot(s) in {plot_dir}" if pngs else ""))
-    aggregate.write_summary(sweep.out / "summary.json", sweep, cells)
+    data = aggregate.summary(sweep, cells)
+    if baseline is not None:  # the new columns of each cell (scores.summary_rows)
+        for row, extra in zip(data["cells"], summary_rows(cells, baseline), strict=True):
+            row.update({k: v for k, v in extra.items() if k not in ("config", "algo")})
+    write_json_atomic(sweep.out / "summary.json", data, indent=1)
     log(f"wrote {sweep.out / 'summary.json'}")
     return cells
 

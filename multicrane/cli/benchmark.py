@@ -38,6 +38,7 @@ examples:
   multicrane benchmark profiles                         # what each profile runs
   multicrane benchmark run --profile smoke              # seconds: try the tool
   multicrane benchmark run --profile quick --workers 2  # ~35 min on 2 cores
+  multicrane benchmark run --profile standard --workers 2  # Table I complete, ~2 h of CPU
   multicrane benchmark status --profile quick           # done / partial / pending
   multicrane benchmark report --profile quick --docs    # table + curves into docs/
   multicrane benchmark run --profile paper --configs E3 --algos ppo --seeds 0-4
@@ -339,6 +340,16 @@ def cmd_status(args: argparse.Namespace) -> int:
     return show_status(sweep_from(args), args.workers or os.cpu_count() or 1)
 
 
+def baseline(sweep: Sweep) -> dict:
+    """The uniform random policy's and the exact planner's mean return per configuration on
+    the final evaluation's episodes, for the normalised score (``multicrane.benchmark.scores``)."""
+    import policies
+    from multicrane.benchmark.scores import baselines
+
+    episodes = sweep.final_episodes or sweep.eval_episodes
+    return baselines(sweep.configs, episodes, policies.factory("random", paper=True))
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     sweep = sweep_from(args)
     if not sweep.out.is_dir():
@@ -361,9 +372,11 @@ def cmd_report(args: argparse.Namespace) -> int:
         f"; {labels['date']}" if labels.get("date") else ""
     )
     labels.setdefault("machine", machine())
-    cells = write_report(sweep, labels, docs_file, plots=not args.no_plots)
+    cells = write_report(
+        sweep, labels, docs_file, plots=not args.no_plots, baseline=baseline(sweep)
+    )
     finished = sum(c.n for c in cells)
     total = sum(len(c.seeds) for c in cells)
     if finished < total:
-        print(f"note: {total - finished} of {total} runs have no result yet (shown as missing)")
+        print(f"note: {total - finished} of {total} runs have no result yet (shown as pending)")
     return 0
