@@ -19,6 +19,8 @@ NEEDS = {
     "sb3_maskable_gymnasium": "sb3_contrib",
     "sb3_supersuit": "supersuit",
     "tianshou_collect": "tianshou",
+    "tianshou_dqn_train": "tianshou",
+    "torchrl_mappo_train": "torchrl",
     "torchrl_wrapper": "torchrl",
 }
 
