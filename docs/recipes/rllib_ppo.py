@@ -12,7 +12,7 @@ from multicrane.integrations import rllib as mc_rllib
 torch.set_num_threads(1)
 ray.init(address="local", num_cpus=2, include_dashboard=False,
          runtime_env={"env_vars": {"OMP_NUM_THREADS": "1"}})  # fmt: skip
-config = mc_rllib.ppo_config(  # "multicrane" env, masked module, one policy "shared"
+config = mc_rllib.ppo_config(  # the env, the masked module, one policy "shared"
     "e2s2", n_cranes=2, num_env_runners=1,
     training={"train_batch_size_per_learner": 200, "minibatch_size": 100, "num_epochs": 1},
 )  # fmt: skip

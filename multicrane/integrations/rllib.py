@@ -20,7 +20,10 @@ Needs the ``rllib`` extra (``pip install "multicrane[rllib]"``: ray[rllib] 2.60,
 - ``shared_module_spec()``: one RL module for all cranes, RLlib's own
   ``ActionMaskingTorchRLModule`` (its action-masking example): PPO's default MLP over
   ``observations``, with the logits of illegal actions pushed to the float minimum.
-- ``ppo_config()``: a ``PPOConfig`` training that one shared policy.
+- ``ppo_config()``: a ``PPOConfig`` training that one shared policy. It hands RLlib the
+  environment class itself (pickled to the workers), not a registered name: Ray Tune's
+  registry keeps the first Ray session's job id, so a name registered in a second session
+  of the same process is not found by that session's workers.
 - ``ModulePolicy``: a trained module as a multicrane policy (``policy(observations) ->
   {agent: action}``, greedy among legal actions) for ``multicrane.rollout``.
 """
@@ -167,12 +170,11 @@ def ppo_config(
     ``training`` overrides ``PPOConfig.training`` keywords (``lr``, ``num_epochs``,
     ``train_batch_size_per_learner``, ``minibatch_size``, ...). Every env runner builds its
     own environment, seeded by RLlib from ``seed``."""
-    register_envs()
     env_config = {"scenario": scenario, "n_cranes": n_cranes, **dict(env_options or {})}
     CraneMultiAgentEnv(env_config).close()  # a bad scenario or option fails here, not remotely
     config = (
         PPOConfig()
-        .environment(ENV_NAME, env_config=env_config)
+        .environment(CraneMultiAgentEnv, env_config=env_config)
         .env_runners(num_env_runners=num_env_runners, num_cpus_per_env_runner=1)
         .multi_agent(policies={POLICY_ID}, policy_mapping_fn=_shared)
         .rl_module(rl_module_spec=shared_module_spec(hidden))

@@ -77,9 +77,8 @@ def train_rllib(
     torch.set_num_threads(1)
     env = multicrane_env(scenario, n_cranes, env_options)  # a bad scenario fails before Ray
     out.mkdir(parents=True, exist_ok=True)
-    # Ray first: registering the environments with Ray Tune's registry while an in-process
-    # Ray node exists but no driver is connected would let Ray auto-connect to whatever
-    # cluster this machine last started.
+    # Ray first, then the config: nothing may touch Ray (e.g. Ray Tune's registry) before
+    # this process is connected, or Ray auto-connects to whatever cluster it finds.
     own = _init_ray(ray, address, num_cpus=num_env_runners + 1)
     try:
         config = mc_rllib.ppo_config(
