@@ -73,7 +73,8 @@ class RayBackend:
             if self.address:
                 ray.init(address=self.address, **options)
             else:
-                ray.init(num_cpus=self.num_cpus, **options)
+                # "local": start our own Ray, never join one already running here.
+                ray.init(address="local", num_cpus=self.num_cpus, **options)
         self.workers = int(ray.cluster_resources().get("CPU", self.workers))
         remote = ray.remote(num_cpus=1, max_retries=0)(self.runner)
         pending = {remote.remote(task): task for task in tasks}

@@ -16,6 +16,7 @@ for cranes (needs the 'train' extra).
     multicrane train --paper E2S2 --algo dqn --steps 200000 --seed 0
     multicrane train --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
     multicrane train --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
+    multicrane train --backend rllib --scenario e3s2 --cranes 2 --steps 20000 [--address auto]
 
 The run lives in --out (default runs/<name>): config.json, checkpoint/ (every
 --checkpoint-every steps and on Ctrl-C), tb/ (tensorboard --logdir runs), then model.zip and
@@ -24,6 +25,11 @@ stopped (or reports a finished one). Ctrl-C once: stop at the next update with a
 twice: stop at once (back to the last checkpoint). Prints the final evaluation: greedy
 actions on --eval-episodes fixed seeds, with the gap to the exact planner's return in paper
 mode.
+
+--backend rllib (needs the 'rllib' extra) trains one shared masked PPO policy for all cranes
+with RLlib on a Ray cluster (--address auto, or ray://HOST:10001) or on a local Ray instance
+(no --address); --envs sets its env runners (default 2), --set its PPOConfig.training
+options. See multicrane.cli.train_rllib.
 """
 
 
@@ -51,6 +57,10 @@ def register(sub) -> None:
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     p.add_argument("--out", type=Path, default=None, help="run directory")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
+                   help="sb3: stable-baselines3 in this process (default); rllib: RLlib on Ray")
+    p.add_argument("--address", default=None,
+                   help="rllib: Ray cluster to join (auto, ray://HOST:10001; default: local)")
     p.set_defaults(func=run)
 
 
@@ -115,6 +125,12 @@ def print_result(result: dict, run_dir: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", str(args.threads))
+    if args.backend == "rllib":
+        from multicrane.cli.train_rllib import run_rllib
+
+        return run_rllib(args)
+    if args.address is not None:
+        return error(ValueError("--address is an option of --backend rllib"))
     from multicrane import ScenarioError
     from multicrane.run_lock import RunLockedError
     from multicrane.training import ConfigError, train
