@@ -82,7 +82,7 @@ def derive_supports(s: Scenario, tables: list[TomlTable]) -> Scenario:
             else:
                 bare = [list(b) for b in below if b not in owner or owner[b] not in under]
             if bare:
-                what = "a foundation" if on_ground else f"a {kinds} target"
+                what = "foundation" if on_ground else f"{kinds} target"
                 raise t.fail(
                     "target", t.data["target"], f"wall {c.id!r} has no support: no {what} under "
                     f"cell(s) {bare} below its bottom row"
