@@ -89,7 +89,7 @@ def test_installed_wheel_finds_its_scenarios(wheel, tmp_path):
     target = target.resolve()
     assert Path(report["file"]).resolve().is_relative_to(target), report["file"]
     assert report["names"] == sorted(Path(n).stem for n in SCENARIO_FILES)
-    assert len(report["names"]) == 19
+    assert len(report["names"]) == 21
     scenarios_dir = Path(report["dir"]).resolve()
     assert scenarios_dir == target / "multicrane" / "scenarios"
     assert Path(report["source"]).resolve().is_relative_to(scenarios_dir)
