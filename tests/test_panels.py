@@ -9,16 +9,20 @@ boxes, records, scenario text) and planner on the shipped precast scenarios.
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 from conftest import readable_env
 from hypothesis import given
 from hypothesis import strategies as st
+from pettingzoo.test import parallel_api_test
 
 import multicrane
 import policies
-from multicrane import geometry, paths
+from multicrane import generator, geometry, paths
 from multicrane.bound import lower_bound
+from multicrane.reach import uncarriable
 from multicrane.record import EpisodeRecord, record_episode, resimulate
 from multicrane.render import render_ansi
 from multicrane.rollout import run_episode
@@ -391,3 +395,48 @@ def test_task_level_greedy_finishes_and_the_bound_is_below(name):
     assert m["success"]
     bound = lower_bound(name, 2, seed=0, time_limit=10)
     assert 0 < bound.value <= m["makespan"]
+
+
+# -- the generator's precast family --------------------------------------------------------
+
+PRECAST_CASES = [
+    {"yard": "one", "storeys": 2, "bays_x": 2, "cranes": 2, "obstacles": 0},
+    {"yard": "two", "interchangeable": True, "obstacles": 3, "span": 5, "storeys": 1},
+    {"yard": "around", "reach": True, "cranes": 3, "storeys": 1, "bays_x": 2},
+]
+
+
+@pytest.mark.parametrize("params", PRECAST_CASES)
+def test_generated_precast_frames_load_and_are_built(params):
+    s = generator.generate("precast", 3, **params)
+    p = generator.draw_params("precast", 3, **params)
+    text = to_toml(s)
+    assert to_toml(generator.generate("precast", 3, **params)) == text  # deterministic
+    assert parse_scenario(text, source=s.source, default_name=s.name) == s
+    nx, storeys = p["bays_x"], p["storeys"]
+    kinds = Counter(c.kind for c in s.components)
+    assert kinds == {Kind.COLUMN: 2 * (nx + 1) * storeys, Kind.BEAM: 2 * nx * storeys,
+                     Kind.SLAB: nx * storeys}  # fmt: skip
+    position = {c: k for k, c in enumerate(s.order)}
+    for i, c in enumerate(s.components):
+        if c.kind is Kind.SLAB:  # on the two beams under its edges, listed after them
+            assert [s.components[j].kind for j in c.supports] == [Kind.BEAM, Kind.BEAM]
+            assert all(position[j] < position[i] for j in c.supports)
+    if p["reach"]:
+        assert s.crane_specs and uncarriable(s) is None
+    parallel_api_test(multicrane.parallel_env(s), num_cycles=3)
+    env = multicrane.parallel_env(s)
+    assert run_episode(env, policies.make("prioritized", env, seed=0), seed=0)["success"]
+
+
+@pytest.mark.parametrize(
+    ("params", "words"),
+    [
+        ({"random_start": True}, "panels need fixed starts"),
+        ({"bays_y": 2}, "one bay deep"),
+        ({"span": 2}, "span >= 3"),
+    ],
+)
+def test_bad_precast_parameters_are_named(params, words):
+    with pytest.raises(ValueError, match=words):
+        generator.generate("precast", 0, **params)

@@ -27,7 +27,7 @@ _SHAPE = ("bays_x", "bays_y", "storeys", "column_height", "span", "cranes", "obs
 def register(sub) -> None:
     p = sub.add_parser("generate", help="generate a scenario file", description=DESCRIPTION,
                        **formatter())  # fmt: skip
-    p.add_argument("family", nargs="?", help="frame, hall or tower")
+    p.add_argument("family", nargs="?", help="frame, hall, tower or precast")
     p.add_argument("--seed", type=int, default=0)
     for key in _SHAPE:
         p.add_argument(f"--{key.replace('_', '-')}", type=int, default=None, dest=key)
