@@ -16,9 +16,10 @@ DESCRIPTION = """Generate a buildable, solvable scenario and write it as a scena
     multicrane generate --set test-small -o out/        # every site of a held-out set
 
 FAMILY is frame (n x m bays, a few storeys), hall (long spans, one or two storeys), tower
-(small footprint, many storeys) or precast (a frame one bay deep with floor slabs). Every parameter left out is drawn from the family's range
-with the seed; the same arguments always give the same bytes. The file loads with the
-strict loader (multicrane check FILE). Without -o the file goes to standard output.
+(small footprint, many storeys) or precast (a frame one bay deep with floor slabs). Every
+parameter left out is drawn from the family's range with the seed; the same arguments always
+give the same bytes. The file loads with the strict loader (multicrane check FILE). Without -o
+the file goes to standard output.
 """
 
 _SHAPE = ("bays_x", "bays_y", "storeys", "column_height", "span", "cranes", "obstacles")
