@@ -440,3 +440,25 @@ def test_generated_precast_frames_load_and_are_built(params):
 def test_bad_precast_parameters_are_named(params, words):
     with pytest.raises(ValueError, match=words):
         generator.generate("precast", 0, **params)
+
+
+def test_rrd_replay_draws_panels_as_boxes_in_their_own_colours(tmp_path):
+    """The first 40 steps of a precast-frame episode as a rerun file: per step one box per
+    component, sized as its cells, slabs in the panel colours, columns and beams as usual."""
+    pytest.importorskip("rerun")
+    from test_replay import _column, _read_rrd
+
+    from multicrane import viewer
+
+    env = readable_env("precast-frame", n_cranes=4, max_steps=40)
+    rec = record_episode(env, policies.make("prioritized", env, seed=0), seed=0)
+    chunks = _read_rrd(viewer.record_to_rrd(rec, tmp_path / "frame.rrd"))
+    kinds = np.array(env.sim.site.kind)
+    steps, colours = _column(chunks[("/components", False)], "Boxes3D:colors")
+    _, halves = _column(chunks[("/components", False)], "Boxes3D:half_sizes")
+    assert steps == list(range(41))
+    assert colours[0] == pack_colors(np.zeros(len(kinds), dtype=np.int8), kinds).tolist()
+    assert colours[-1] == pack_colors(env.sim.state.status, kinds).tolist()
+    assert (env.sim.state.status[kinds == int(Kind.SLAB)] == Status.INITIAL).all()
+    for i, c in enumerate(env.scenario.components):  # step 0: each lies flat in the yard
+        assert sorted(2 * np.array(halves[0][i])) == sorted(geometry.extent(*c.initial)), c.id
