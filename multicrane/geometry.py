@@ -70,14 +70,6 @@ def shape_key(kind: Kind, target: Pose) -> tuple[int, tuple[int, int, int]]:
     return (int(kind), extent(*target))
 
 
-def panel_axes(kind: Kind, target: Pose) -> tuple[int, int]:
-    """The two axes a panel's target spans: (x, y) for a slab; (horizontal axis, z) for a
-    wall."""
-    if kind is Kind.SLAB:
-        return (0, 1)
-    return (0 if target[0][0] != target[1][0] else 1, 2)
-
-
 def touches(cells_a: list[Cell], cells_b: list[Cell]) -> bool:
     """True when some cell of ``a`` shares a face with some cell of ``b``."""
     b = set(cells_b)
@@ -91,11 +83,12 @@ def touches(cells_a: list[Cell], cells_b: list[Cell]) -> bool:
 def lifted_pose(
     kind: Kind, length: int, initial: Pose, target: Pose, beam_lift_z: int | None
 ) -> Pose:
-    """Where a component goes when it is picked up (the paper's rule).
+    """Where a component goes when it is picked up (the paper's rule, and panels').
 
     A column is stood upright on node 1's (x, y) and raised by one cell. A beam is raised to
     ``beam_lift_z`` (default: the height of its own target) and turned about its centre
     ``(floor((x1 + x2) / 2), floor((y1 + y2) / 2))`` to the orientation of its own target.
+    Panels: ``_lifted_panel``.
     """
     (x1, y1, z1), (x2, y2, _) = initial
     if kind in PANELS:
