@@ -28,7 +28,8 @@ the optimum of the relaxation is at most the best achievable makespan:
 - *Readiness is relaxed*: a target may be filled once every support target holds an assembled
   component (``Site.target_supports``); the model asks only that the component *arrives* no
   earlier than the step in which the last support is assembled (``s + 1 + m >= end(support)``;
-  cranes act one after another in a step, so the same step is possible), and that a beam is
+  cranes act one after another in a step, so the same step is possible), and that a beam (or
+  a panel: ``types.waits_for_target``) is
   *claimed* no earlier than the step in which some target it may fill becomes supported (the
   simulator lets a beam be claimed only then, and also asks that target to be free, which the
   model does not). A column may be claimed before its target is supported, as in the
@@ -71,7 +72,7 @@ from multicrane.bound_schedule import makespan as schedule_makespan
 from multicrane.bound_tasks import Option, Tasks, task_options
 from multicrane.scenario import Scenario
 from multicrane.scenario_loader import load_scenario
-from multicrane.types import Kind
+from multicrane.types import waits_for_target
 
 STATUSES = ("optimal", "feasible", "unknown")
 
@@ -175,7 +176,7 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
         if not isinstance(ready[o.target], int):
             model.Add(start[o.comp] + 1 + o.moves >= ready[o.target]).OnlyEnforceIf(p)
     for c in tasks.comps:
-        if tasks.scenario.components[c].kind is not Kind.BEAM:
+        if not waits_for_target(tasks.scenario.components[c].kind):
             continue
         compatible = [ready[t] for t in tasks.compatible[c]]
         if any(isinstance(r, int) for r in compatible):

@@ -5,7 +5,7 @@ Given an assignment of each component to a target (``Tasks.assignment``: least t
 already scheduled), on the crane that can finish it soonest (among those with reach). It
 respects every constraint of the relaxation in ``multicrane.bound``: one task at a time per
 crane, arrival no earlier than the step the target's last support is assembled, and a beam
-claimed no earlier than the step some target it may fill is supported. Its makespan is an
+(or panel) claimed no earlier than the step some target it may fill is supported. Its makespan is an
 upper bound on the relaxation's optimum (not on the real problem's); when it equals the
 workload floor the relaxation is solved.
 """
@@ -13,7 +13,7 @@ workload floor the relaxation is solved.
 from __future__ import annotations
 
 from multicrane.bound_tasks import Option, Tasks
-from multicrane.types import Kind
+from multicrane.types import waits_for_target
 
 
 def list_schedule(tasks: Tasks, assignment: dict[int, Option]) -> dict[int, tuple[int, Option]]:
@@ -42,7 +42,7 @@ def list_schedule(tasks: Tasks, assignment: dict[int, Option]) -> dict[int, tupl
                 continue
             ready = max((fill[s] for s in supports), default=0)
             claimable = 0
-            if tasks.scenario.components[c].kind is Kind.BEAM:
+            if waits_for_target(tasks.scenario.components[c].kind):
                 known = [
                     max((fill[s] for s in tasks.supports[t]), default=0)
                     for t in tasks.compatible[c]

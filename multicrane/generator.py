@@ -1,17 +1,20 @@
-"""The scenario generator: random buildable sites of three families, deterministic by seed.
+"""The scenario generator: random buildable sites of four families, deterministic by seed.
 
 ``generate(family, seed, **params)`` returns a validated :class:`~multicrane.scenario.Scenario`
 (the strict loader has read it, so it passes every load check, solvability included);
 ``to_toml(scenario)`` (``multicrane.scenario_toml``) gives its file, byte for byte the same for
 the same arguments. Families (``FAMILIES``): ``frame`` (steel frames: n x m bays, a few
 storeys), ``hall`` (long spans, one or two storeys), ``tower`` (a small footprint, many
-storeys). A building is a grid of column positions ``span`` cells apart; storey 1's columns
-stand on foundations, storey k's on storey k-1's; a beam (``span - 1`` cells) joins each pair
+storeys), and in ``PANEL_FAMILIES`` ``precast`` (a precast frame one bay deep: beams along x
+only, and per bay and storey a floor slab resting on the two beams under its edges; kept
+apart from ``FAMILIES`` so that the named sets, drawn from those, stay as they are). A
+building is a grid of column positions ``span`` cells apart; storey 1's columns stand on
+foundations, storey k's on storey k-1's; a beam (``span - 1`` cells) joins each pair
 of neighbouring columns at the top of the storey. The list order is buildable: storey by
 storey, its columns before the beams they carry. Every parameter left out is drawn from the
 family's range with ``random.Random(seed)``. Beams are lifted to the top of the site
 (``rules.beam_lift_z``), above the finished building, so that no built part ever blocks a
-beam's pick-up pose; the yard (``layout``: components lying in lanes,
+beam's (or slab's) pick-up pose; the yard (``layout``: components lying in lanes,
 or ``[random_start]`` bands) is ``multicrane.generator_yard``'s job. Obstacle boxes are
 placed in the yard and kept only if the scenario still loads (so is still solvable); tower
 cranes (``reach=True``) stand evenly around the construction area with the smallest whole
@@ -28,12 +31,13 @@ from dataclasses import replace
 from typing import Any
 
 from multicrane import generator_yard as yard
+from multicrane import geometry
 from multicrane.reach import uncarriable
 from multicrane.scenario import Box, ComponentSpec, CraneSpec, RewardSpec, Scenario, ScenarioError
 from multicrane.scenario_limits import MAX_SITE_CELLS
 from multicrane.scenario_loader import parse_scenario
 from multicrane.scenario_toml import to_toml
-from multicrane.types import Kind
+from multicrane.types import PANELS, Kind
 
 # Each family's parameter ranges (inclusive), drawn from when a parameter is not given.
 FAMILIES: dict[str, dict[str, tuple[int, int]]] = {
@@ -44,6 +48,11 @@ FAMILIES: dict[str, dict[str, tuple[int, int]]] = {
     "tower": {"bays_x": (1, 1), "bays_y": (1, 2), "storeys": (3, 8), "column_height": (3, 4),
               "span": (3, 4)},
 }  # fmt: skip
+# Families with panels: slabs need fixed starts (the random start rule draws straight poses).
+PANEL_FAMILIES: dict[str, dict[str, tuple[int, int]]] = {
+    "precast": {"bays_x": (1, 3), "bays_y": (1, 1), "storeys": (1, 2), "column_height": (3, 4),
+                "span": (3, 5)},
+}  # fmt: skip
 YARDS = ("one", "two", "around")
 OPTIONS = ("yard", "obstacles", "cranes", "reach", "interchangeable", "random_start")
 MAX_HEIGHT = 64
@@ -52,15 +61,17 @@ MAX_CRANES = 16
 
 def draw_params(family: str, seed: int, **params: Any) -> dict[str, Any]:
     """Every parameter of ``generate``: those given, the rest drawn from the family's ranges."""
-    if family not in FAMILIES:
-        raise ValueError(f"unknown family {family!r}; families: {', '.join(FAMILIES)}")
-    unknown = sorted(set(params) - set(FAMILIES[family]) - set(OPTIONS))
+    ranges = FAMILIES.get(family) or PANEL_FAMILIES.get(family)
+    if ranges is None:
+        names = ", ".join([*FAMILIES, *PANEL_FAMILIES])
+        raise ValueError(f"unknown family {family!r}; families: {names}")
+    unknown = sorted(set(params) - set(ranges) - set(OPTIONS))
     if unknown:
-        allowed = ", ".join([*FAMILIES[family], *OPTIONS])
+        allowed = ", ".join([*ranges, *OPTIONS])
         raise ValueError(f"unknown generator parameter(s) {', '.join(unknown)}; known: {allowed}")
     rng = random.Random(f"{family}:{seed}")
     out: dict[str, Any] = {}
-    for key, (lo, hi) in FAMILIES[family].items():
+    for key, (lo, hi) in ranges.items():
         drawn = rng.randint(lo, hi)  # always drawn, so one parameter given changes no other
         out[key] = params.get(key, drawn)
     drawn_opts = {
@@ -73,10 +84,25 @@ def draw_params(family: str, seed: int, **params: Any) -> dict[str, Any]:
     }
     if params.get("reach"):
         drawn_opts["interchangeable"] = False  # reach is only generated with own targets
+    if family in PANEL_FAMILIES:
+        drawn_opts["random_start"] = False
     for key, drawn in drawn_opts.items():
         out[key] = params.get(key, drawn)
     _check_params(out)
+    if family in PANEL_FAMILIES:
+        _check_panel_params(out)
     return out
+
+
+def _check_panel_params(p: dict[str, Any]) -> None:
+    if p["random_start"]:
+        raise ValueError("random_start = True: panels need fixed starts (the random start "
+                         "rule draws straight components only)")  # fmt: skip
+    if p["bays_y"] != 1:
+        raise ValueError(f"bays_y = {p['bays_y']!r}: a precast frame is one bay deep (its "
+                         "slabs span it between two beam lines)")  # fmt: skip
+    if p["span"] < 3:
+        raise ValueError(f"span = {p['span']!r}: a slab between columns needs a span >= 3")
 
 
 def _check_params(p: dict[str, Any]) -> None:
@@ -111,8 +137,13 @@ def generate(family: str, seed: int, **params: Any) -> Scenario:
     p = draw_params(family, seed, **params)
     rng = random.Random(f"{family}:{seed}:layout")
     name = f"{family}-s{seed}"
-    comps, order, foundations = _building(p)
-    site = yard.lay_out(comps, p, rng)
+    comps, order, foundations = _building(p, slabs=family in PANEL_FAMILIES)
+    straight = [i for i, c in enumerate(comps) if c.kind not in PANELS]
+    site = yard.lay_out([comps[i] for i in straight], p, rng)
+    site.starts = {straight[k]: pose for k, pose in site.starts.items()}
+    site = yard.add_panel_strip(
+        site, {i: geometry.extent(*c.target)[:2] for i, c in enumerate(comps) if c.kind in PANELS}
+    )
     comps = [replace(c, target=_shift(c.target, site.offset)) for c in comps]
     foundations = [(x + site.offset[0], y + site.offset[1]) for x, y in foundations]
     if site.size[0] * site.size[1] * site.size[2] > MAX_SITE_CELLS:
@@ -147,8 +178,12 @@ def _parse(draft: Scenario) -> Scenario:
     return parse_scenario(to_toml(draft), source=draft.source, default_name=draft.name)
 
 
-def _building(p: dict[str, Any]) -> tuple[list[ComponentSpec], list[int], list[tuple[int, int]]]:
-    """Columns and beams at grid origin (0, 0): components, buildable order, foundations."""
+def _building(
+    p: dict[str, Any], slabs: bool = False
+) -> tuple[list[ComponentSpec], list[int], list[tuple[int, int]]]:
+    """Columns and beams at grid origin (0, 0): components, buildable order, foundations.
+    With ``slabs``: beams along x only, and a slab per bay on the storey's top, resting on
+    the two beams under its edges (its supports)."""
     nx, ny, s, h = p["bays_x"], p["bays_y"], p["span"], p["column_height"]
     cols = [(i * s, j * s) for j in range(ny + 1) for i in range(nx + 1)]
     comps: list[ComponentSpec] = []
@@ -162,14 +197,24 @@ def _building(p: dict[str, Any]) -> tuple[list[ComponentSpec], list[int], list[t
             target = ((x, y, z0), (x, y, top))
             comps.append(ComponentSpec(f"c{k}-{n}", Kind.COLUMN, h, None, target, (), False, ()))
         pairs = [((x, y), (x + s, y)) for (x, y) in cols if (x + s, y) in here]
-        pairs += [((x, y), (x, y + s)) for (x, y) in cols if (x, y + s) in here]
+        if not slabs:
+            pairs += [((x, y), (x, y + s)) for (x, y) in cols if (x, y + s) in here]
+        beam_of: dict[tuple, int] = {}
         for n, (a, b) in enumerate(pairs, 1):
+            beam_of[(a, b)] = len(comps)
             dx, dy = (1, 0) if b[0] > a[0] else (0, 1)
             start = (a[0] + dx, a[1] + dy, top)
             end = (b[0] - dx, b[1] - dy, top)
             order.append(len(comps))
             comps.append(ComponentSpec(f"b{k}-{n}", Kind.BEAM, s - 1, None, (start, end),
                                        (here[a], here[b]), False, ()))  # fmt: skip
+        bays = [(i * s, j * s) for j in range(ny) for i in range(nx)] if slabs else []
+        for n, (x, y) in enumerate(bays, 1):
+            target = ((x + 1, y, top + 1), (x + s - 1, y + s, top + 1))
+            under = (beam_of[((x, y), (x + s, y))], beam_of[((x, y + s), (x + s, y + s))])
+            order.append(len(comps))
+            comps.append(ComponentSpec(f"s{k}-{n}", Kind.SLAB, (s - 1) * (s + 1), None, target,
+                                       under, False, ()))  # fmt: skip
     return comps, order, cols
 
 

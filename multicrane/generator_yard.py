@@ -9,7 +9,8 @@ beam keeps every pick-up pose (a beam is turned about its centre when lifted) in
 site. With ``random_start`` the strips are made three times as deep and become the bands of
 a ``[random_start]`` table (bands' x ranges may not overlap, so with a yard on several sides
 the bands share the strips' x range out). ``free_boxes`` are candidate obstacle boxes in the
-yard, for the generator to try.
+yard, for the generator to try. Panels (slabs) lie in a strip of their own on the low-x side
+(``add_panel_strip``).
 """
 
 from __future__ import annotations
@@ -152,3 +153,34 @@ def _spots(yard: Yard, rng: random.Random, count: int) -> list[Box]:
             continue  # in or next to the construction area
         out.append(Box((x, y, 1), (x + dx - 1, y + dy - 1, dz)))
     return out
+
+
+def add_panel_strip(site: Yard, panels: dict[int, tuple[int, int]]) -> Yard:
+    """Room for panels (component index -> its target's sides along x and y): a strip added
+    on the low-x side, where they lie flat at ``z = 1`` in columns along y, one free cell
+    around each, each oriented as its target (so its pick-up pose is straight above it);
+    everything else moves along x to make room. No panels: the site as it is."""
+    if not panels:
+        return site
+    X, Y, H = site.size
+    wide = max(w for w, _ in panels.values())
+    if max(d for _, d in panels.values()) > Y - 2:
+        raise ValueError(f"a panel {max(panels.values())} does not fit the yard's depth {Y}")
+    starts: dict[int, Pose] = {}
+    x, y = 1, 1
+    for i, (w, d) in sorted(panels.items()):
+        if y + d - 1 > Y - 2:
+            x, y = x + wide + 1, 1
+        starts[i] = ((x, y, 1), (x + w - 1, y + d - 1, 1))
+        y += d + 1
+    dx = x + wide + 1
+
+    def shift(cell):
+        return (cell[0] + dx, *cell[1:])
+
+    x0, y0, x1, y1 = site.area
+    for i, (a, b) in site.starts.items():
+        starts[i] = (shift(a), shift(b))
+    boxes = [Box(shift(b.lo), shift(b.hi)) for b in site.free_boxes]
+    return Yard((X + dx, Y, H), (x0 + dx, y0, x1 + dx, y1), shift(site.offset), starts,
+                site.random_start, boxes)  # fmt: skip

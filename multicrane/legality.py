@@ -8,8 +8,8 @@ pose; both are cached and recomputed then (``_refresh_targets``, ``_recheck``).
 
 **Reach** (``Site.reach``, tower cranes): a crane may claim (or, in automatic mode, be given)
 a component only when its pick-up pose lies in the crane's zone and some compatible target
-in the zone is free (for a beam: ready); a move whose new cells leave the holder's zone is
-not legal. Without reach (``_zones is None``) none of this runs.
+in the zone is free (for a beam or panel: ready); a move whose new cells leave the holder's
+zone is not legal. Without reach (``_zones is None``) none of this runs.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from multicrane.site import FREE, NOBODY
-from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, Kind, Status
+from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, Status
 
 if TYPE_CHECKING:
     from multicrane.site import Site
@@ -27,7 +27,6 @@ if TYPE_CHECKING:
 
 # Plain ints for the hot path: reading an IntEnum member costs a class __getattr__ in 3.11.
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
-_BEAM = int(Kind.BEAM)
 
 
 class Legality:
@@ -61,13 +60,14 @@ class Legality:
 
     def in_reach(self, crane: int, comp: int) -> bool:
         """The crane may take this component: its pick-up pose is in the crane's zone and a
-        compatible target in the zone is free (a beam's: ready). Always True without reach."""
+        compatible target in the zone is free (a beam's or panel's: ready). Always True
+        without reach."""
         if self._zones is None:
             return True
         if not self._pickup_in_zone[crane][comp]:
             return False
         targets = self._zone_targets[crane][comp]
-        if self.site.kind[comp] == _BEAM:
+        if self.site.waits[comp]:
             ready = self.target_ready
             return any(ready[t] for t in targets)
         filled_by = self.state.filled_by
@@ -132,12 +132,13 @@ class Legality:
 
     def claimable(self, comp: int) -> bool:
         """An initial, unclaimed component whose pick-up pose is free and that has somewhere
-        to go (a beam with no supported free target waits, as in the paper)."""
+        to go (a beam or panel with no supported free target waits, as a beam does in the
+        paper)."""
         return (
             self._status[comp] == _INITIAL
             and self.state.holder[comp] == NOBODY
             and self.fits(comp, self.state.pickup[comp])
-            and (self.site.kind[comp] != _BEAM or self._has_ready[comp])
+            and (not self.site.waits[comp] or self._has_ready[comp])
         )
 
     def claimable_components(self) -> list[int]:
@@ -153,13 +154,13 @@ class Legality:
             claimable = self._claimable
             # ``claimable(c)`` inlined: this runs for every component a step touched.
             status, holder, pickup = self._status, self.state.holder, self.state.pickup
-            kind, has_ready, fits = self.site.kind, self._has_ready, self.fits
+            waits, has_ready, fits = self.site.waits, self._has_ready, self.fits
             for c in recheck:
                 if (
                     status[c] == _INITIAL
                     and holder[c] == NOBODY
                     and fits(c, pickup[c])
-                    and (kind[c] != _BEAM or has_ready[c])
+                    and (not waits[c] or has_ready[c])
                 ):
                     claimable.add(c)
                 else:

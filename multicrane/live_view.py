@@ -76,7 +76,7 @@ class LiveView:
         rec.log(
             "components",
             rr.Boxes3D(centers=(lo + hi) / 2, half_sizes=(hi - lo) / 2,
-                       colors=pack_colors(np.asarray(st.status)), fill_mode="solid"),
+                       colors=pack_colors(st.status, sim.site.kind), fill_mode="solid"),
         )  # fmt: skip
         rec.log("metrics/reward", rr.Scalars(reward))
         rec.log("metrics/return", rr.Scalars(self._return))

@@ -19,7 +19,7 @@ Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening)
 
 2. ``components``: a (C, 14) table in scenario order (claim action ``8 + i`` names row i):
    status one-hot (4), ready, held by a crane, held by this crane, is a beam, node 1 and
-   node 2 as (x, y, z) divided by the site size.
+   node 2 as (x, y, z) divided by the site size (a panel: two opposite corners of its box).
 3. ``crane``: 9 values: holds a component, it is in transit, it has arrived, its moves /
    move limit (clipped to 1), past the move limit, assembly steps left / assembly steps,
    pass-over pending, fraction of components assembled, fraction of the step limit used.

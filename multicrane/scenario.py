@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from multicrane.types import Kind
 
 Cell = tuple[int, int, int]
-Pose = tuple[Cell, Cell]  # (node 1, node 2): the two end cells of a straight component
+Pose = tuple[Cell, Cell]  # (node 1, node 2): end cells of a straight component, corners of a panel
 
 
 class ScenarioError(ValueError):
@@ -78,10 +78,10 @@ class ComponentSpec:
 
     id: str
     kind: Kind
-    length: int
+    length: int  # cells (a panel: all the cells of its rectangle)
     initial: Pose | None  # None: pre-built, or drawn by the random start rule
     target: Pose
-    supports: tuple[int, ...]  # indices of the column targets this target rests on
+    supports: tuple[int, ...]  # targets this target rests on (a beam's columns, a panel's)
     prebuilt: bool
     prebuilt_on: tuple[int, ...]  # targets a pre-built component may stand on (drawn at reset)
 

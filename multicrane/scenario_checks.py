@@ -11,7 +11,7 @@ from multicrane.reach import uncarriable
 from multicrane.scenario import Cell, Scenario, ScenarioError
 from multicrane.start import has_candidates
 from multicrane.toml_table import TomlTable
-from multicrane.types import Kind
+from multicrane.types import PANELS, Kind
 
 
 def check_scenario(s: Scenario, tables: list[TomlTable]) -> None:
@@ -37,7 +37,8 @@ def check_scenario(s: Scenario, tables: list[TomlTable]) -> None:
                 raise fail(i, "target", f"overlaps the target of component {other!r}")
             target_cells[cell] = i
 
-    # Columns stand on a foundation or on another column target; beams rest on their supports.
+    # Columns stand on a foundation or on another column target; beams rest on their supports
+    # (panels: multicrane.panels, once the targets are known not to overlap).
     for i, c in enumerate(s.components):
         cells = geometry.pose_cells(*c.target)
         if c.kind is Kind.COLUMN:
@@ -49,7 +50,7 @@ def check_scenario(s: Scenario, tables: list[TomlTable]) -> None:
                 raise fail(i, "target", f"column target at ({x}, {y}) has no foundation there")
             if z > 1 and not on_column:
                 raise fail(i, "target", "column target floats: no column target directly below it")
-        else:
+        elif c.kind is Kind.BEAM:
             if not c.supports:
                 raise fail(i, "supports", "a beam target needs the column targets it rests on")
             for j in c.supports:
@@ -66,7 +67,10 @@ def check_scenario(s: Scenario, tables: list[TomlTable]) -> None:
     for i, c in enumerate(s.components):
         for j in c.prebuilt_on:
             other = s.components[j]
-            if (other.kind, other.length) != (c.kind, c.length):
+            if (other.kind, other.length) != (c.kind, c.length) or (
+                c.kind in PANELS and geometry.shape_key(c.kind, c.target)
+                != geometry.shape_key(other.kind, other.target)
+            ):
                 raise fail(i, "prebuilt_on", f"target of {other.id!r} has another kind or length")
     if sum(c.prebuilt for c in s.components) == len(s.components):
         raise ScenarioError(f"{src}: components: every component is pre-built; nothing to do")

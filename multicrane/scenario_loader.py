@@ -12,7 +12,7 @@ import math
 import tomllib
 from pathlib import Path
 
-from multicrane import geometry, scenario_limits
+from multicrane import geometry, panels, scenario_limits
 from multicrane.scenario import (
     Band,
     Box,
@@ -28,7 +28,7 @@ from multicrane.scenario_catalog import resolve
 from multicrane.scenario_checks import check_reach, check_scenario
 from multicrane.scenario_solvable import check_solvable
 from multicrane.toml_table import TomlTable
-from multicrane.types import Kind
+from multicrane.types import PANELS, Kind
 
 FORMAT_VERSION = 1
 
@@ -153,6 +153,7 @@ class _Builder:
             crane_specs=crane_specs,
         )
         check_scenario(scenario, comp_tables)
+        scenario = panels.derive_supports(scenario, comp_tables)
         check_reach(scenario, comp_tables)
         return scenario
 
@@ -300,7 +301,7 @@ class _Builder:
             ids.append(cid)
         return ids
 
-    def _pose(self, t: TomlTable, name: str, length: int | None) -> Pose:
+    def _pose(self, t: TomlTable, name: str, length: int | None, panel: bool = False) -> Pose:
         raw = t.get(name, list)
         if len(raw) != 2:
             raise t.fail(name, raw, "must be two cells [[x, y, z], [x, y, z]] (node 1, node 2)")
@@ -309,7 +310,7 @@ class _Builder:
         for cell in (a, b):
             if not self._in_site(cell):
                 raise t.fail(name, raw, f"cell {list(cell)} {self._outside(cell)}")
-        if not geometry.is_straight(a, b):
+        if not panel and not geometry.is_straight(a, b):
             raise t.fail(name, raw, "node 1 and node 2 must lie on one axis-parallel line")
         if length is not None and geometry.pose_length(a, b) != length:
             raise t.fail(name, raw, f"spans {geometry.pose_length(a, b)} cells, length is {length}")
@@ -323,12 +324,17 @@ class _Builder:
         try:
             kind = Kind[kind_name.upper()]
         except KeyError:
-            raise t.fail("kind", kind_name, "must be 'column' or 'beam'") from None
+            raise t.fail("kind", kind_name, "must be 'column', 'beam', 'slab' or 'wall'") from None
+        panel = kind in PANELS
+        if panel and t.has("length"):
+            raise t.fail("length", t.data["length"], "a panel has no length: its corners say")
         length = t.get("length", int, None)
         if length is not None and length < 1:
             raise t.fail("length", length, "must be at least 1")
-        target = self._pose(t, "target", length)
-        length = geometry.pose_length(*target)
+        target = self._pose(t, "target", length, panel)
+        if panel and (problem := panels.target_problem(kind, target)):
+            raise t.fail("target", t.data["target"], problem)
+        length = len(geometry.pose_cells(*target)) if panel else geometry.pose_length(*target)
         axis = geometry.axis_of(*target)
         if kind is Kind.COLUMN and length > 1 and axis != 2:
             raise t.fail("target", t.data["target"], "a column target must stand upright (along z)")
@@ -341,13 +347,16 @@ class _Builder:
                 raise t.fail(
                     "initial", t.data["initial"], "a pre-built component has no initial pose"
                 )
-            initial = self._pose(t, "initial", length)
-        elif not prebuilt and not random_start:
-            raise t.missing(
-                "initial",
-                f"required for component {cid!r} "
-                "(the scenario has no [random_start] and the component is not pre-built)",
+            initial = self._pose(t, "initial", None if panel else length, panel)
+            if panel and (problem := panels.initial_problem(kind, initial, target)):
+                raise t.fail("initial", t.data["initial"], problem)
+        elif not prebuilt and (panel or not random_start):
+            why = (
+                "a panel has no random start"
+                if panel
+                else "the scenario has no [random_start] and the component is not pre-built"
             )
+            raise t.missing("initial", f"required for component {cid!r} ({why})")
         supports = self._refs(t, "supports", ids)
         if kind is Kind.COLUMN and supports:
             raise t.fail("supports", t.data["supports"], "only beams name supports")

@@ -143,14 +143,15 @@ def precedence_cycle(s: Scenario) -> list[int]:
 
 
 def target_supports(s: Scenario) -> list[list[int]]:
-    """Per target, the targets it rests on: a beam's supports, the column target below."""
+    """Per target, the targets it rests on: a beam's or panel's supports, the column target
+    below a column."""
     bottom_of: dict[Cell, int] = {}
     for j, c in enumerate(s.components):
         for cell in geometry.pose_cells(*c.target):
             bottom_of[cell] = j
     out = []
     for c in s.components:
-        if c.kind is Kind.BEAM:
+        if c.kind is not Kind.COLUMN:
             out.append(list(c.supports))
             continue
         x, y, z = min(geometry.pose_cells(*c.target), key=lambda cell: cell[2])
@@ -161,10 +162,10 @@ def target_supports(s: Scenario) -> list[list[int]]:
 
 def _compatible_all(s: Scenario) -> list[set[int]]:
     """Per component, the targets it may fill (its own; with interchangeable targets, every
-    target of the same kind, length and axis)."""
+    target of the same kind and shape: ``geometry.shape_key``)."""
     if not s.interchangeable_targets:
         return [{i} for i in range(len(s.components))]
-    shape = [(c.kind, c.length, geometry.axis_of(*c.target)) for c in s.components]
+    shape = [geometry.shape_key(c.kind, c.target) for c in s.components]
     groups: dict[tuple, set[int]] = {}
     for j, key in enumerate(shape):
         groups.setdefault(key, set()).add(j)
@@ -210,17 +211,20 @@ def _static_free(s: Scenario) -> np.ndarray:
 
 
 def _fits(free: np.ndarray, extent: tuple[int, int, int]) -> np.ndarray:
-    """Bool per anchor position: the straight shape of ``extent`` fits there."""
-    fits = free.copy()
+    """Bool per anchor position: the box of ``extent`` (a straight shape or a panel) fits
+    there. Axis by axis, a box fits where the box one axis shorter fits at every shift."""
+    fits = free
     for axis, n in enumerate(extent):
+        grown = fits.copy()
         for k in range(1, n + 1):
             shifted = np.zeros_like(free)
             src = [slice(None)] * 3
             dst = [slice(None)] * 3
             src[axis] = slice(k, None)
             dst[axis] = slice(None, -k)
-            shifted[tuple(dst)] = free[tuple(src)]
-            fits &= shifted
+            shifted[tuple(dst)] = fits[tuple(src)]
+            grown &= shifted
+        fits = grown
     return fits
 
 

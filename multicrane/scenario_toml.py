@@ -13,7 +13,7 @@ import json
 import math
 
 from multicrane.scenario import Pose, Scenario
-from multicrane.types import Kind
+from multicrane.types import PANELS
 
 _DIRECTION_NAMES = {(1, 0, 0): "+x", (-1, 0, 0): "-x", (0, 1, 0): "+y", (0, -1, 0): "-y"}
 
@@ -84,8 +84,8 @@ def to_toml(s: Scenario) -> str:
         out += [
             "[[components]]",
             f"id = {_str(c.id)}",
-            f"kind = {_str('column' if c.kind == Kind.COLUMN else 'beam')}",
-            f"length = {c.length}",
+            f"kind = {_str(c.kind.name.lower())}",
+            *([] if c.kind in PANELS else [f"length = {c.length}"]),
             f"target = {_pose(c.target)}",
         ]
         if c.initial is not None:

@@ -27,13 +27,12 @@ from multicrane.site import FREE, NOBODY, WALL, Site
 from multicrane.start import Start, draw_start
 from multicrane.state import SiteState
 from multicrane.transitions import event_of
-from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, Event, EventType, Kind, Status
+from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, Event, EventType, Status
 
 __all__ = ["FREE", "NOBODY", "WALL", "Simulator", "StepOutcome"]
 
 # Plain ints for the hot path: reading an IntEnum member costs a class __getattr__ in 3.11.
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
-_BEAM = int(Kind.BEAM)
 
 
 @dataclass
@@ -205,7 +204,7 @@ class Simulator(Legality):
             out.events.append(Event(t, crane, EventType.CLAIM_CONFLICT, comp))
             return
         if self._status[comp] != _INITIAL or (
-            self.site.kind[comp] == _BEAM and not self._has_ready[comp]
+            self.site.waits[comp] and not self._has_ready[comp]
         ):
             out.events.append(Event(t, crane, EventType.ILLEGAL, comp, detail=f"claim {comp}"))
             return
@@ -323,7 +322,7 @@ class Simulator(Legality):
                 continue
             if self._status[comp] != _INITIAL or st.holder[comp] != NOBODY:
                 continue
-            if self.site.kind[comp] == _BEAM and not self._has_ready[comp]:
+            if self.site.waits[comp] and not self._has_ready[comp]:
                 continue
             if self._zones is not None and not self.in_reach(crane, comp):
                 continue  # out of this crane's reach: skipped like a beam with no target

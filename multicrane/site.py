@@ -16,7 +16,7 @@ import numpy as np
 
 from multicrane import geometry
 from multicrane.scenario import Scenario
-from multicrane.types import CLAIM_BASE, MOVE_DELTAS, Kind
+from multicrane.types import CLAIM_BASE, MOVE_DELTAS, Kind, waits_for_target
 
 FREE = 0
 WALL = -1
@@ -32,7 +32,8 @@ class Site:
     - ``shape``: (X + 2, Y + 2, H + 2), the padded grid; ``size``: its number of cells.
     - ``static``: (size,) int16, the empty padded grid (``FREE`` inside, ``WALL`` elsewhere).
     - ``move_delta``: the linear-index offset of each of the six moves.
-    - ``kind``, ``length``: per component, its ``Kind`` (as int) and its number of cells.
+    - ``kind``, ``length``: per component, its ``Kind`` (as int) and its number of cells;
+      ``waits``: it may be claimed only while a target it may fill is ready (beams, panels).
     - ``target_cells``: per target, its cells as linear indices (node 1 first);
       ``target_cellset``: the same as frozensets.
     - ``target_supports``: per target, the targets that must hold assembled components
@@ -55,6 +56,7 @@ class Site:
         self.n_components = len(comps)
         self.n_actions = CLAIM_BASE + self.n_components
         self.kind = [int(c.kind) for c in comps]
+        self.waits = [waits_for_target(c.kind) for c in comps]
         self.length = [c.length for c in comps]
         self.move_limit = scenario.reward.move_limit
         self.target_cells = [self.lin_pose(c.target) for c in comps]
@@ -118,28 +120,29 @@ class Site:
 
     def _compatible_targets(self, comp: int) -> list[int]:
         """Targets a component may fill: its own, or with interchangeable targets every
-        target of the same kind, length and orientation. A lifted component keeps the
+        target of the same kind and shape (``geometry.shape_key``). A lifted component keeps the
         orientation of its own target (there is no rotation move), so a target of another
         orientation could never be filled; leaving it out keeps masks and skips honest."""
         comps = self.scenario.components
         if not self.scenario.interchangeable_targets:
             return [comp]
         own = comps[comp]
-        shape = (own.kind, own.length, geometry.axis_of(*own.target))
+        shape = geometry.shape_key(own.kind, own.target)
         return [
             j
             for j, other in enumerate(comps)
-            if (other.kind, other.length, geometry.axis_of(*other.target)) == shape
+            if geometry.shape_key(other.kind, other.target) == shape
         ]
 
     def _target_supports(self) -> list[list[int]]:
         """Targets that must hold assembled components before this target can be filled.
 
-        Beams name theirs; a column target standing on another column target needs that one.
+        Beams and panels name theirs (the loader derives a panel's); a column target standing
+        on another column target needs that one.
         """
         supports = []
         for c in self.scenario.components:
-            if c.kind is Kind.BEAM:
+            if c.kind is not Kind.COLUMN:
                 supports.append(list(c.supports))
                 continue
             bottom = min(geometry.pose_cells(*c.target), key=lambda cell: cell[2])

@@ -7,7 +7,7 @@ positions are site coordinates divided by it; path lengths and times are divided
 ``D = X + Y + H`` (path lengths) or ``D + assembly_steps + 1`` (times) and clipped to 1.
 
 ``components`` (C rows, scenario order; ``COMPONENT_FEATURES`` then one column per crane):
-beam (1 for a beam, 0 for a column); status one-hot (initial, in transit, arrived,
+beam (1 for a beam, 0 for a column or panel); status one-hot (initial, in transit, arrived,
 assembled); node 1 and node 2 of its cells now (x, y, z each); node 1 and node 2 of its own
 target; target_ready (its own target is free and its supports are assembled); claimable
 (a crane could take it now); taken (it is some crane's task); path (shortest path length

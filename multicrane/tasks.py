@@ -7,7 +7,7 @@ for a busy crane: continue) and ``1 + p`` (take task ``p``).
 
 **Masks** (``TaskBook.masks``). A busy crane may only continue (``0``). For an idle crane task
 ``p = (c, t)`` is allowed iff component ``c`` is claimable now (initial, not claimed, its
-pick-up pose free; a beam needs a ready target) and is not another crane's task, target
+pick-up pose free; a beam or panel needs a ready target) and is not another crane's task, target
 ``t`` is free and ready (its supports assembled) and not another crane's task's target, and
 the crane can carry ``c`` to ``t``: its reach holds the pick-up pose and the target and a
 path exists through the static site inside its reach (``static_ok``, breadth-first

@@ -44,6 +44,7 @@ from multicrane.viewer_episode import (
 )
 from multicrane.viewer_scene import (
     APPLICATION_ID,
+    PANEL_STATE_COLORS,
     STATE_COLORS,
     TIMELINE,
     blueprint,
@@ -161,7 +162,7 @@ class LiveViewer:
         rec.log(
             "components",
             rr.Boxes3D(centers=(lo + hi) / 2, half_sizes=(hi - lo) / 2,
-                       colors=pack_colors(one.status[0]), fill_mode="solid"),
+                       colors=pack_colors(one.status[0], env.sim.site.kind), fill_mode="solid"),
         )  # fmt: skip
         rec.log("cranes/hooks", rr.Points3D(hooks))
         rec.log("cranes/cables", rr.LineStrips3D(cables))
@@ -205,6 +206,7 @@ def record_and_save(
 
 __all__ = [
     "APPLICATION_ID",
+    "PANEL_STATE_COLORS",
     "STATE_COLORS",
     "EpisodeCollector",
     "LiveViewer",

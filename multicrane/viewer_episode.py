@@ -78,8 +78,8 @@ class EpisodeCollector:
             for i, c in enumerate(cells):
                 if c is not last[i]:
                     last[i] = c
-                    # A component is a straight run of cells: the smallest and largest
-                    # linear indices are its two corner cells.
+                    # A component is a box of cells (a straight run, or a panel): the
+                    # smallest and largest linear indices are its two corner cells.
                     lo_now[i] = cell(min(c))
                     hi_now[i] = cell(max(c))
             lo[t] = lo_now
@@ -110,7 +110,7 @@ class EpisodeCollector:
             columns=rr.Boxes3D.columns(
                 centers=((lo + hi) / 2).reshape(-1, 3),
                 half_sizes=((hi - lo) / 2).reshape(-1, 3),
-                colors=pack_colors(status).reshape(-1),
+                colors=pack_colors(status, env.sim.site.kind).reshape(-1),
             ).partition([n] * T),
         )
         hooks, cables = crane_geometry(env, lo, hi, np.asarray(self.held))

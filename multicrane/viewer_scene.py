@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from multicrane.types import Status
+from multicrane.types import PANELS, Status
 
 if TYPE_CHECKING:
     from multicrane.scenario import Scenario
@@ -28,7 +28,17 @@ STATE_COLORS = np.array(
     ],
     dtype=np.uint8,
 )
-assert len(STATE_COLORS) == len(Status)
+# Panels (slabs, walls) get their own colour per state, so they stand out from the frame.
+PANEL_STATE_COLORS = np.array(
+    [
+        [190, 120, 60, 255],  # initial: brown
+        [0, 175, 200, 255],  # in transit: cyan
+        [150, 205, 50, 255],  # arrived: lime
+        [160, 90, 210, 255],  # assembled: violet
+    ],
+    dtype=np.uint8,
+)
+assert len(STATE_COLORS) == len(PANEL_STATE_COLORS) == len(Status)
 
 
 def import_rerun():
@@ -42,9 +52,14 @@ def import_rerun():
     return rerun
 
 
-def pack_colors(status: np.ndarray) -> np.ndarray:
-    """Component states -> packed ``0xRRGGBBAA`` colours (uint32), any shape."""
-    rgba = STATE_COLORS[np.asarray(status, dtype=np.intp)].astype(np.uint32)
+def pack_colors(status: np.ndarray, kinds=None) -> np.ndarray:
+    """Component states -> packed ``0xRRGGBBAA`` colours (uint32), any shape; ``kinds`` (the
+    components' ``Kind`` codes, broadcast against ``status``) gives panels their own colours."""
+    status = np.asarray(status, dtype=np.intp)
+    rgba = STATE_COLORS[status].astype(np.uint32)
+    if kinds is not None:
+        panel = np.broadcast_to(np.isin(np.asarray(kinds), [int(k) for k in PANELS]), status.shape)
+        rgba[panel] = PANEL_STATE_COLORS[status[panel]]
     return (rgba[..., 0] << 24) | (rgba[..., 1] << 16) | (rgba[..., 2] << 8) | rgba[..., 3]
 
 

@@ -57,7 +57,7 @@ RANDOM_START = _random_start_scenarios()
 def test_every_scenario_file_is_covered():
     """Adding a scenario file without it being exercised here must fail."""
     stems = {p.stem for p in SCENARIO_FILES}
-    assert len(SCENARIO_FILES) == 19, [p.name for p in SCENARIO_FILES]
+    assert len(SCENARIO_FILES) == 21, [p.name for p in SCENARIO_FILES]
     assert stems == set(multicrane.scenario_names())
     assert len(SCENARIOS) == len(SCENARIO_FILES)
     assert {p.values[0] for p in PARAMS} == stems

@@ -9,7 +9,8 @@ checker asserts, with numpy on the whole grid:
 
 - the occupancy grid agrees with the components (each component's cells hold its value, no
   cell holds two components, no stray component cells), the walls and obstacles never change,
-  every component is a straight axis-parallel line of its length inside the site;
+  every component is a straight axis-parallel line of its length (a panel: a full rectangle
+  of its target's sides) inside the site;
 - statuses never go back and change only along the state machine's edges; yard, arrived and
   assembled components never move; carried components move by at most one cell a step;
 - the bookkeeping agrees: placed count, holders and held components, filled targets, supports;
@@ -30,6 +31,7 @@ import numpy as np
 import pytest
 from conftest import SCENARIOS, random_masked_actions, reach_skip, readable_env
 
+from multicrane.geometry import extent
 from multicrane.observation import Observer
 from multicrane.simulator import FREE, NOBODY, WALL
 from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, EventType, Status
@@ -81,9 +83,12 @@ class Checker:
         self.total = int(self.lengths.sum())
         self.starts = np.concatenate([[0], np.cumsum(self.lengths)[:-1]]).astype(np.int64)
         self.owner = np.repeat(np.arange(1, self.C + 1), self.lengths)
-        self.expected_spans = np.stack(
-            [np.zeros(self.C), np.zeros(self.C), self.lengths - 1], axis=1
-        ).astype(np.int64)
+        # A straight component spans (0, 0, length - 1); a panel its target's two sides (it
+        # lies flat or stands in the target's orientation, both of those sides).
+        self.expected_spans = np.array(
+            [sorted(n - 1 for n in extent(*c.target)) for c in sim.scenario.components],
+            dtype=np.int64,
+        ).reshape(self.C, 3)
         self.edges = _edge_table(EDGES_AUTO if self.auto else EDGES_MANUAL)
         self.shifts = {0, *sim.site.move_delta}
         self.holdable = HOLDABLE_AUTO if self.auto else HOLDABLE_MANUAL
@@ -165,7 +170,8 @@ class Checker:
         assert occ.min() >= WALL and occ.max() <= C
         # Walls, ground, sky and obstacles never change; nothing enters them.
         assert np.array_equal(occ == WALL, self.wall), "the wall set changed"
-        # Straight, axis-parallel lines of their length, inside the site.
+        # Straight, axis-parallel lines of their length (panels: full rectangles of their
+        # target's sides, as many cells as the box holds), inside the site.
         coords = self._decode(idx)
         assert coords[:, 0].min() >= 0 and coords[:, 0].max() < self.X
         assert coords[:, 1].min() >= 0 and coords[:, 1].max() < self.Y
@@ -174,7 +180,7 @@ class Checker:
         hi = np.maximum.reduceat(coords, self.starts, axis=0)
         spans = np.sort(hi - lo, axis=1)
         bad = np.flatnonzero((spans != self.expected_spans).any(axis=1))
-        assert bad.size == 0, f"components {bad.tolist()} are not straight lines"
+        assert bad.size == 0, f"components {bad.tolist()} are not lines or panels of their shape"
 
         status = sim.state.status
         assert status.min() >= 0 and status.max() <= ASSEMBLED
@@ -399,6 +405,11 @@ def _guided_actions(env, obs, rng, greed=0.8):
             actions[agent] = ASSEMBLE
             continue
         claims = legal[legal >= CLAIM_BASE]
+        # Prefer components that have somewhere to go now: a column whose target is not yet
+        # supported (a storey-2 column) may be claimed, but would be carried about for ever.
+        going = [a for a in claims.tolist() if sim.ready_targets(a - CLAIM_BASE)]
+        if going:
+            claims = np.array(going)
         if claims.size:
             actions[agent] = int(claims[rng.integers(claims.size)])
             continue

@@ -36,6 +36,7 @@ PRIORITIZED_SEED0 = {
     "e4s4": (175, 97, 64, 53), "frame2-3c": (518, 268, 182, 146),
     "hall-4c": (505, 258, 179, 140),
     "towers-3c": (None, None, 141, None),  # three tower cranes: runs with exactly 3
+    "precast-frame": (395, 212, 155, 127), "precast-house": (154, 85, 64, 63),
 }  # fmt: skip
 
 

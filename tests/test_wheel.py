@@ -48,7 +48,8 @@ def wheel(tmp_path_factory) -> Path:
 def test_wheel_contents(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
     assert SCENARIO_FILES, "no scenario files in the repository"
-    assert len(SCENARIO_FILES) == 19  # the 16 paper configurations, frame2-3c, hall-4c, towers-3c
+    # the 16 paper configurations, frame2-3c, hall-4c, towers-3c, precast-frame, precast-house
+    assert len(SCENARIO_FILES) == 21
     for name in SCENARIO_FILES:
         assert f"multicrane/scenarios/{name}" in names, f"{name} is missing from the wheel"
     for name in PACKAGE_FILES:
@@ -88,7 +89,7 @@ def test_installed_wheel_finds_its_scenarios(wheel, tmp_path):
     target = target.resolve()
     assert Path(report["file"]).resolve().is_relative_to(target), report["file"]
     assert report["names"] == sorted(Path(n).stem for n in SCENARIO_FILES)
-    assert len(report["names"]) == 19
+    assert len(report["names"]) == 21
     scenarios_dir = Path(report["dir"]).resolve()
     assert scenarios_dir == target / "multicrane" / "scenarios"
     assert Path(report["source"]).resolve().is_relative_to(scenarios_dir)

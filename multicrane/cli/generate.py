@@ -15,10 +15,11 @@ DESCRIPTION = """Generate a buildable, solvable scenario and write it as a scena
     multicrane generate tower --seed 1 --storeys 6 --cranes 3 --reach --fixed-start
     multicrane generate --set test-small -o out/        # every site of a held-out set
 
-FAMILY is frame (n x m bays, a few storeys), hall (long spans, one or two storeys) or tower
-(small footprint, many storeys). Every parameter left out is drawn from the family's range
-with the seed; the same arguments always give the same bytes. The file loads with the
-strict loader (multicrane check FILE). Without -o the file goes to standard output.
+FAMILY is frame (n x m bays, a few storeys), hall (long spans, one or two storeys), tower
+(small footprint, many storeys) or precast (a frame one bay deep with floor slabs). Every
+parameter left out is drawn from the family's range with the seed; the same arguments always
+give the same bytes. The file loads with the strict loader (multicrane check FILE). Without -o
+the file goes to standard output.
 """
 
 _SHAPE = ("bays_x", "bays_y", "storeys", "column_height", "span", "cranes", "obstacles")
@@ -27,7 +28,7 @@ _SHAPE = ("bays_x", "bays_y", "storeys", "column_height", "span", "cranes", "obs
 def register(sub) -> None:
     p = sub.add_parser("generate", help="generate a scenario file", description=DESCRIPTION,
                        **formatter())  # fmt: skip
-    p.add_argument("family", nargs="?", help="frame, hall or tower")
+    p.add_argument("family", nargs="?", help="frame, hall, tower or precast")
     p.add_argument("--seed", type=int, default=0)
     for key in _SHAPE:
         p.add_argument(f"--{key.replace('_', '-')}", type=int, default=None, dest=key)
