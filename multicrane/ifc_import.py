@@ -1,7 +1,7 @@
 """IFC to scenario: a building model read, snapped to the grid and laid out as a site.
 
 Needs the ``ifc`` extra (``pip install 'multicrane[ifc]'``). ``import_ifc(path, cell=1.0,
-yard="one", cranes=1, panels="obstacles")`` reads the model (``multicrane.ifc_read``), snaps
+yard="one", cranes=1, panels="components")`` reads the model (``multicrane.ifc_read``), snaps
 its columns, beams and panels to cells of ``cell`` metres (``multicrane.ifc_snap``), lays
 the yard out with the generator's rule (``multicrane.generator_yard``: components lying in
 lanes at ``z = 1`` on one, two or all sides of a construction area one cell larger than the
@@ -11,10 +11,10 @@ plus its longest column (a standing column can be carried over the finished buil
 beams are lifted to the top of the site, as in generated scenarios. The list order is
 buildable: by height, columns before the beams and panels at their top.
 
-Slabs, walls and plates (``panels``): ``"obstacles"`` (their cells, less any column or beam
-target, become obstacle boxes), ``"skip"`` (listed in the skip report) or ``"components"``
-(panel components ``kind = "slab"`` / ``"wall"`` given by two opposite corner cells, lying
-flat in an extra yard strip; they load once the loader has panel kinds, issue 21).
+Slabs, walls and plates (``panels``): ``"components"`` (panel components ``kind = "slab"`` /
+``"wall"`` given by two opposite corner cells, lying flat in an extra yard strip; a wall on
+the ground gets a foundation strip under it), ``"obstacles"`` (their cells, less any column or
+beam target, become obstacle boxes) or ``"skip"`` (listed in the skip report).
 Everything left out is in ``IfcImport.skipped`` with its type, GlobalId, name and reason.
 """
 
@@ -53,7 +53,7 @@ class IfcImport:
 
 
 def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: int = 1,
-               panels: str = "obstacles", load: bool = True) -> IfcImport:  # fmt: skip
+               panels: str = "components", load: bool = True) -> IfcImport:  # fmt: skip
     """The scenario of the IFC model at ``path`` (module docstring). ``load=False`` returns
     the text without loading it (``scenario`` is None)."""
     if not cell > 0:
@@ -128,7 +128,7 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
     scenario = Scenario(
         name=name, description="", source=str(path), sha256="", size=size,
         construction_area=site.area,
-        foundations=tuple((x + ox, y + oy) for x, y in building.foundations),
+        foundations=_foundations(building, placed_panels, ox, oy),
         obstacles=tuple(sorted(obstacles, key=lambda b: (b.lo, b.hi))),
         components=tuple(comps), order=tuple(order), cranes=cranes,
         step_limit=max(1000, 150 * n), interchangeable_targets=False, assembly_steps=1,
@@ -146,6 +146,17 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
             hint = " (try --panels skip)" if obstacle_parts else ""
             raise IfcImportError(f"the imported site does not load: {exc}{hint}") from None
     return result
+
+
+def _foundations(b: Building, panels: list[PanelSpec], ox: int, oy: int):
+    """The columns' foundations, and a foundation strip under every wall standing on the ground."""
+    cells = [(x + ox, y + oy) for x, y in b.foundations]
+    for p in panels:
+        (x0, y0, z0), (x1, y1, z1) = p.target
+        if p.kind == "wall" and min(z0, z1) == 1:
+            cells += [(x, y) for x in range(min(x0, x1), max(x0, x1) + 1)
+                      for y in range(min(y0, y1), max(y0, y1) + 1)]  # fmt: skip
+    return tuple(dict.fromkeys(cells))
 
 
 def _panel_problem(b: Building, part: Part, taken: dict[Cell, int]) -> str | None:

@@ -193,14 +193,13 @@ def test_panels_as_components_text(tmp_path):
     assert a[1] == b[1] and (a[2], b[2]) == (1, 2)  # a wall across y, two cells high
 
 
-@pytest.mark.skip(reason="panel components load once issue 21 (slab and wall kinds) is merged")
 def test_panels_as_components_load(tmp_path):
     assert import_ifc(_panel_model(tmp_path / "p.ifc"), panels="components").scenario
 
 
 def test_panels_as_obstacles_or_skipped(tmp_path):
     path = _panel_model(tmp_path / "p.ifc")
-    obst = import_ifc(path)  # default: obstacles
+    obst = import_ifc(path, panels="obstacles")
     assert obst.scenario.obstacles and not obst.skipped
     target_cells = {c for x in obst.scenario.components for c in geometry.pose_cells(*x.target)}
     assert not target_cells & obst.scenario.obstacle_cells()

@@ -35,8 +35,8 @@ def register(sub) -> None:
     p.add_argument("--yard", choices=("one", "two", "around"), default="one",
                    help="yard strips on the low-y side, both y sides, or all around")
     p.add_argument("--cranes", type=int, default=1, help="cranes (default 1)")
-    p.add_argument("--panels", choices=("components", "obstacles", "skip"), default="obstacles",
-                   help="what slabs, walls and plates become (default obstacles)")
+    p.add_argument("--panels", choices=("components", "obstacles", "skip"), default="components",
+                   help="what slabs, walls and plates become (default components)")
     p.set_defaults(func=run)
 
 
