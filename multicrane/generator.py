@@ -80,9 +80,11 @@ def draw_params(family: str, seed: int, **params: Any) -> dict[str, Any]:
 
 
 def _check_params(p: dict[str, Any]) -> None:
-    for key in ("bays_x", "bays_y", "storeys"):
+    for key in ("bays_x", "storeys"):
         if not isinstance(p[key], int) or p[key] < 1:
             raise ValueError(f"{key} = {p[key]!r}: must be an integer >= 1")
+    if not isinstance(p["bays_y"], int) or p["bays_y"] < 0:  # 0: one row of columns
+        raise ValueError(f"bays_y = {p['bays_y']!r}: must be an integer >= 0")
     if not isinstance(p["column_height"], int) or p["column_height"] < 2:
         raise ValueError(f"column_height = {p['column_height']!r}: must be an integer >= 2")
     if not isinstance(p["span"], int) or not 2 <= p["span"] <= 12:

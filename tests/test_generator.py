@@ -162,6 +162,8 @@ def test_obstacles_never_make_a_site_unsolvable_and_are_dropped_when_they_would(
         ({"storeys": 20, "column_height": 4}, "at most 64"),
         ({"colour": 3}, "unknown generator parameter(s) colour"),
         ({"span": 1}, "span = 1"),
+        ({"bays_y": -1}, "bays_y = -1"),
+        ({"bays_x": 0}, "bays_x = 0"),
     ],
 )
 def test_bad_parameters_are_named(params, words):

@@ -16,6 +16,8 @@ DESCRIPTION = """Environment throughput: joint steps per second under random leg
     multicrane bench --all          # every shipped scenario, 1 and 4 cranes
     multicrane bench --paper E1S1   # the single-agent paper mode (Gymnasium)
     multicrane bench --decisions task --scenario hall-4c --cranes 4   # task-level rounds
+    multicrane bench --scaling      # costs of generated sites of 3-121 components, 1-16 cranes
+    multicrane bench --scaling --full --plot scaling.png   # 3-490 components (needs [bench])
 
 Each joint step includes the observations and masks the environment returns and the choice of
 a random legal action per crane (from the mask, as a masked policy would). Resets are
@@ -27,6 +29,14 @@ policy's call (planning included: the prioritized rule's space-time searches) pl
 reports rounds per second and the mean and 95th percentile milliseconds per round, for the
 task-level prioritized planner and for random legal tasks, over whole episodes (seeds 0, 1,
 ...) until ``--steps`` rounds have been timed (resets excluded).
+
+With ``--scaling`` it measures how the costs grow with the site (``multicrane.scaling``):
+load, reset, joint step per crane (200 random legal steps) and the prioritized planner's
+time per decision (first 100 decisions) on generated halls. The default grid (3, 21, 121
+components x 1, 4, 16 cranes) takes about a minute; ``--full`` runs 3-490 components x 1, 2,
+4, 8, 16 cranes (several minutes). It prints a markdown table and the fitted exponents of
+cost ~ components^b x cranes^c; ``--plot FILE.png`` draws the log-log plot (matplotlib: the
+``bench`` extra, ``pip install 'multicrane[bench]'``).
 """
 
 
@@ -41,6 +51,10 @@ def register(sub) -> None:
     p.add_argument("--paper", metavar="CONFIG", nargs="*", help="paper mode configurations")
     p.add_argument("--decisions", choices=("motion", "task"), default="motion",
                    help="task: time task-level decision rounds (planning included)")
+    p.add_argument("--scaling", action="store_true",
+                   help="costs of generated sites of growing size (multicrane.scaling)")
+    p.add_argument("--full", action="store_true", help="with --scaling: the full grid")
+    p.add_argument("--plot", metavar="PNG", help="with --scaling: write the log-log plot")
     p.set_defaults(func=run)
 
 
@@ -123,9 +137,33 @@ def run_task(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_scaling(args: argparse.Namespace) -> int:
+    import policies
+    from multicrane import scaling
+
+    def planner(env, seed):
+        return policies.make("prioritized", env, seed=seed)
+
+    rows = []
+    for n, k in scaling.grid(args.full):
+        rows.append(scaling.measure(n, k, planner))
+        r = rows[-1]
+        print(f"{r['components']:>4} components {k:>2} cranes: load {r['load_s']:.3f} s, "
+              f"reset {1e3 * r['reset_s']:.1f} ms, step {r['step_ms']:.2f} ms, "
+              f"plan {r['plan_ms']:.2f} ms (max {r['plan_ms_max']:.1f})", flush=True)  # fmt: skip
+    print()
+    print(scaling.table(rows))
+    if args.plot:
+        scaling.plot(rows, args.plot)
+        print(f"\nwrote {args.plot}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     import multicrane
 
+    if args.scaling:
+        return run_scaling(args)
     if args.decisions == "task":
         return run_task(args)
 
