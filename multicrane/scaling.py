@@ -149,7 +149,10 @@ def fit_growth(rows: list[dict[str, Any]], key: str) -> tuple[float, float]:
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The rows as a markdown table, then one line per cost with its fitted exponents."""
-    head = "| components | cranes | cells | load s | reset ms | step ms | step ms/crane | plan ms | plan max ms |"
+    head = (
+        "| components | cranes | cells | load s | reset ms | step ms | step ms/crane "
+        "| plan ms | plan max ms |"
+    )
     lines = [head, "|" + "---:|" * 9]
     for r in rows:
         lines.append(
