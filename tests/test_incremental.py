@@ -1,14 +1,17 @@
-"""Caches kept incrementally for speed equal a from-scratch computation at every step.
+"""Caches kept incrementally for speed, and fast searches, equal a from-scratch computation.
 
-Target readiness (``Legality._update_targets``), each component's "has a ready target" flag,
-the claimable list, and the joint observation (``Observer.observe_all``, one broadcast of
-the shared part) against the per-crane ``observe`` it replaced.
+The breadth-first search (index-array frontier) against the whole-array one; target
+readiness (``Legality._update_targets``), each component's "has a ready target" flag and the
+claimable list against a full recompute at every step; the joint observation
+(``Observer.observe_all``, one broadcast of the shared part) against per-crane ``observe``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import multicrane
 import policies
@@ -81,3 +84,50 @@ def test_joint_observation_rows_equal_per_crane_observe_and_stay_fresh(scenario,
         obs, *_ = env.step(actions)
     for handed, copy in kept:  # later steps never wrote into an observation handed out
         np.testing.assert_array_equal(handed, copy)
+
+
+def _dense_breadth_first(ok, starts, deltas, through=None):
+    """The whole-array breadth-first search that ``grid_search.breadth_first`` replaced."""
+    n = ok.size
+    dist = np.full(n, -1, dtype=np.int32)
+    frontier = np.zeros(n, dtype=bool)
+    frontier[[s for s in starts if ok[s]]] = True
+    dist[frontier] = 0
+    seen = frontier.copy()
+    if through is not None:
+        frontier &= through
+    depth = 0
+    while frontier.any():
+        depth += 1
+        nxt = np.zeros(n, dtype=bool)
+        for d in deltas:
+            if d > 0:
+                nxt[d:] |= frontier[: n - d]
+            else:
+                nxt[: n + d] |= frontier[-d:]
+        nxt &= ok & ~seen
+        dist[nxt] = depth
+        seen |= nxt
+        frontier = nxt if through is None else nxt & through
+    return dist
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    shape=st.tuples(st.integers(1, 7), st.integers(1, 7), st.integers(1, 5)),
+    density=st.floats(0.0, 0.6),
+    seed=st.integers(0, 2**16),
+    n_starts=st.integers(0, 4),
+    use_through=st.booleans(),
+)
+def test_breadth_first_equals_the_whole_array_search(shape, density, seed, n_starts, use_through):
+    from multicrane.grid_search import breadth_first
+
+    rng = np.random.default_rng(seed)
+    X, Y, Z = shape
+    ok = rng.random(X * Y * Z) >= density
+    deltas = [Y * Z, -(Y * Z), Z, -Z, 1, -1]  # flat moves, wrapping at the rows like the grid's
+    starts = rng.integers(0, ok.size, n_starts).tolist()
+    through = rng.random(ok.size) < 0.8 if use_through else None
+    expected = _dense_breadth_first(ok, starts, deltas, through)
+    np.testing.assert_array_equal(breadth_first(ok, starts, deltas, through), expected)
