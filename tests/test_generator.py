@@ -251,3 +251,19 @@ def test_evaluate_takes_a_set_and_pools_its_sites(capsys):
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "1 episodes per site x 2 sites" in out and "prioritized" in out
+
+
+def test_bench_and_compare_planners_take_a_set(capsys):
+    from multicrane.cli import main
+
+    assert main(["bench", "--scenario", "set:train:0-2", "--steps", "20"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("claims") == 2, out  # one row per site
+    argv = ["compare-planners", "--scenarios", "set:train:0-2", "e1s1", "--cranes", "1",
+            "--policies", "greedy", "--seeds", "1", "--no-bound", "--no-optimal",
+            "--no-task"]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "train/" in out and "e1s1" in out
+    assert main(["bench", "--scenario", "set:nothing", "--steps", "5"]) == 2
+    assert main(["compare-planners", "--scenarios", "set:nothing"]) == 2

@@ -16,6 +16,7 @@ DESCRIPTION = """Environment throughput: joint steps per second under random leg
     multicrane bench --all          # every shipped scenario, 1 and 4 cranes
     multicrane bench --paper E1S1   # the single-agent paper mode (Gymnasium)
     multicrane bench --decisions task --scenario hall-4c --cranes 4   # task-level rounds
+    multicrane bench --scenario set:test-small --steps 2000   # every site of a named set
     multicrane bench --scaling      # costs of generated sites of 3-121 components, 1-16 cranes
     multicrane bench --scaling --full --plot scaling.png   # 3-490 components (needs [bench])
 
@@ -59,7 +60,7 @@ def register(sub) -> None:
 
 
 def bench_parallel(
-    scenario: str, cranes: int | None, steps: int, seed: int = 0, auto: bool = False
+    scenario, cranes: int | None, steps: int, seed: int = 0, auto: bool = False
 ) -> float:
     """Joint steps per second of the PettingZoo parallel environment."""
     import multicrane
@@ -97,7 +98,7 @@ def bench_paper(config: str, steps: int, seed: int = 0) -> float:
     return steps / (time.perf_counter() - start)
 
 
-def bench_task(scenario: str, cranes: int | None, rounds: int, policy: str) -> list[float]:
+def bench_task(scenario, cranes: int | None, rounds: int, policy: str) -> list[float]:
     """Seconds per task-level decision round (policy call + env.step), whole episodes from
     seed 0 on, until ``rounds`` rounds are timed."""
     import multicrane
@@ -117,21 +118,30 @@ def bench_task(scenario: str, cranes: int | None, rounds: int, policy: str) -> l
     return times
 
 
+def _runs(args: argparse.Namespace) -> list[tuple[str, object, int | None]]:
+    """(label, scenario, cranes) of each run: every shipped scenario with 1 and 4 cranes
+    (``--all``), each site of a named set (``set:NAME``), or the one scenario."""
+    import multicrane
+    from multicrane.scenario_sets import is_set_ref, resolve_set
+
+    if args.all:
+        return [(name, name, n) for name in multicrane.scenario_names() for n in (1, 4)]
+    if is_set_ref(args.scenario):
+        return [(name.split("/")[-1], s, args.cranes) for name, s in resolve_set(args.scenario)]
+    return [(args.scenario, args.scenario, args.cranes)]
+
+
 def run_task(args: argparse.Namespace) -> int:
     import multicrane
 
-    runs = (
-        [(name, n) for name in multicrane.scenario_names() for n in (1, 4)]
-        if args.all
-        else [(args.scenario, args.cranes)]
-    )
+    runs = _runs(args)
     rounds = min(args.steps, 2000) if args.steps == 20000 else args.steps
     print(f"{'scenario':<12} {'cranes':>6} {'policy':>12} {'rounds/s':>10} {'mean ms':>8} "
           f"{'p95 ms':>8}")  # fmt: skip
-    for name, n in runs:
-        shown = n if n is not None else multicrane.load_scenario(name).cranes
+    for name, scenario, n in runs:
+        shown = n if n is not None else multicrane.load_scenario(scenario).cranes
         for policy in ("prioritized", "random"):
-            t = np.array(bench_task(name, n, rounds, policy))
+            t = np.array(bench_task(scenario, n, rounds, policy))
             print(f"{name:<12} {shown:>6} {policy:>12} {1 / t.mean():>10,.0f} "
                   f"{1000 * t.mean():>8.2f} {1000 * np.percentile(t, 95):>8.2f}")  # fmt: skip
     return 0
@@ -173,21 +183,23 @@ def run(args: argparse.Namespace) -> int:
             rate = bench_paper(config, args.steps)
             print(f"{config:<12} {'paper':>7} {rate:>14,.0f}")
         return 0
-    runs = (
-        [(name, n) for name in multicrane.scenario_names() for n in (1, 4)]
-        if args.all
-        else [(args.scenario, args.cranes)]
-    )
+    try:
+        runs = _runs(args)
+    except ValueError as e:  # an unknown set name
+        from multicrane.cli.common import error
+
+        return error(str(e))
     print(f"{'scenario':<12} {'cranes':>6} {'mode':>7} {'joint steps/s':>14}")
-    for name, n in runs:
+    for name, scenario, n in runs:
         from multicrane.reach import crane_count_problem
 
-        problem = None if n is None else crane_count_problem(multicrane.load_scenario(name), n)
+        loaded = multicrane.load_scenario(scenario)
+        problem = None if n is None else crane_count_problem(loaded, n)
         if problem is not None:  # crane reach: a tower-crane scenario needs its own cranes
             print(f"{name:<12} {n:>6} skipped: {problem}")
             continue
-        rate = bench_parallel(name, n, args.steps, auto=args.auto)
-        shown = n if n is not None else multicrane.load_scenario(name).cranes
+        rate = bench_parallel(scenario, n, args.steps, auto=args.auto)
+        shown = n if n is not None else loaded.cranes
         mode = "auto" if args.auto else "claims"
         print(f"{name:<12} {shown:>6} {mode:>7} {rate:>14,.0f}")
     return 0
