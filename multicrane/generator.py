@@ -108,6 +108,15 @@ def _check_params(p: dict[str, Any]) -> None:
         )
 
 
+def site_cells(family: str, seed: int, **params: Any) -> int:
+    """The cell count (X * Y * height) of the site ``generate`` would make, without making
+    it (for choosing parameters that stay within ``MAX_SITE_CELLS``)."""
+    p = draw_params(family, seed, **params)
+    comps, _, _ = _building(p)
+    size = yard.lay_out(comps, p, random.Random(f"{family}:{seed}:layout")).size
+    return size[0] * size[1] * size[2]
+
+
 def generate(family: str, seed: int, **params: Any) -> Scenario:
     """A validated, solvable scenario of ``family``; the same arguments give the same one."""
     p = draw_params(family, seed, **params)

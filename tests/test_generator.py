@@ -193,6 +193,9 @@ def test_held_out_sets_have_their_sizes_and_disjoint_seeds():
     for m in large:
         p = dict(m.params)
         assert 60 <= component_count(p) <= 200 and 4 <= p["cranes"] <= 16
+    sizes = [component_count(dict(m.params)) for m in large]
+    assert min(sizes) <= 65 and max(sizes) >= 195  # spread over the whole range
+    assert {dict(m.params)["cranes"] for m in large} == set(range(4, 17))
     held = {m.seed for rule in HELD_OUT for m in members(rule)}
     assert not held & set(TRAIN_SEEDS)
     assert len({m.family for m in small}) == 3 and len({m.family for m in large}) == 3
