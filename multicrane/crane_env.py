@@ -325,10 +325,12 @@ class MultiCraneEnv(ParallelEnv):
         if self.task_mode is not None:
             obs = self.task_mode.observe()
             self._masks = list(self.observer.masks)
+            np.concatenate(obs, out=self._state)
         else:
-            obs = self._motion_observations()
+            joint = self._motion_observations()
+            self._state = joint.reshape(-1)  # fresh each step: the rows are views of it
+            obs = list(joint)
         self._shown = handed_out(self._masks)
-        np.concatenate(obs, out=self._state)
         if self.obs_format == "flat":
             return dict(zip(self.possible_agents, obs, strict=True))
         return {
@@ -336,7 +338,7 @@ class MultiCraneEnv(ParallelEnv):
             for i, a in enumerate(self.possible_agents)
         }
 
-    def _motion_observations(self) -> list[np.ndarray]:
+    def _motion_observations(self) -> np.ndarray:
         sim = self.sim
         claimable = sim.claimable_components()
         if self.auto:
@@ -346,7 +348,7 @@ class MultiCraneEnv(ParallelEnv):
             ready = claimable
         self.observer.update(sim.take_changed(), ready)
         self._masks = list(sim.action_masks())
-        return [self.observer.observe(i) for i in range(sim.n_cranes)]
+        return self.observer.observe_all()
 
     # -- extras --------------------------------------------------------------------------------
 

@@ -106,9 +106,11 @@ def _check_panel_params(p: dict[str, Any]) -> None:
 
 
 def _check_params(p: dict[str, Any]) -> None:
-    for key in ("bays_x", "bays_y", "storeys"):
+    for key in ("bays_x", "storeys"):
         if not isinstance(p[key], int) or p[key] < 1:
             raise ValueError(f"{key} = {p[key]!r}: must be an integer >= 1")
+    if not isinstance(p["bays_y"], int) or p["bays_y"] < 0:  # 0: one row of columns
+        raise ValueError(f"bays_y = {p['bays_y']!r}: must be an integer >= 0")
     if not isinstance(p["column_height"], int) or p["column_height"] < 2:
         raise ValueError(f"column_height = {p['column_height']!r}: must be an integer >= 2")
     if not isinstance(p["span"], int) or not 2 <= p["span"] <= 12:
@@ -130,6 +132,15 @@ def _check_params(p: dict[str, Any]) -> None:
             f"storeys = {p['storeys']}, column_height = {p['column_height']}: the site would "
             f"be {height} cells high ((storeys + 1) x column_height); at most {MAX_HEIGHT}"
         )
+
+
+def site_cells(family: str, seed: int, **params: Any) -> int:
+    """The cell count (X * Y * height) of the site ``generate`` would make, without making
+    it (for choosing parameters that stay within ``MAX_SITE_CELLS``)."""
+    p = draw_params(family, seed, **params)
+    comps, _, _ = _building(p)
+    size = yard.lay_out(comps, p, random.Random(f"{family}:{seed}:layout")).size
+    return size[0] * size[1] * size[2]
 
 
 def generate(family: str, seed: int, **params: Any) -> Scenario:

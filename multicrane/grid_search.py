@@ -34,26 +34,34 @@ def breadth_first(
 ) -> np.ndarray:
     """Moves from the nearest start to every position, over positions in ``ok`` (the moves
     are symmetric, so this is also the distance *to* the nearest start). Positions outside
-    ``through`` are reached but not expanded. ``UNREACHABLE`` where none."""
+    ``through`` are reached but not expanded. ``UNREACHABLE`` where none.
+
+    The frontier is kept as an index array, so each depth costs the size of its frontier,
+    not of the grid (a position p's neighbours are ``p + d``, those inside the array); the
+    moves are taken one at a time, each closing what it finds, so no position is found twice.
+    Equal to the whole-array version it replaced (tests/test_incremental.py)."""
     n = ok.size
     dist = np.full(n, UNREACHABLE, dtype=np.int32)
-    frontier = np.zeros(n, dtype=bool)
-    frontier[[s for s in starts if ok[s]]] = True
-    dist[frontier] = 0
-    seen = frontier.copy()
-    if through is not None:
-        frontier &= through
+    first = np.array(sorted({int(s) for s in starts if ok[s]}), dtype=np.intp)
+    dist[first] = 0
+    steps = [int(d) for d in deltas]
+    # Padding: a neighbour index outside 0..n-1 reads a False of ``open_`` instead.
+    pad = max((abs(d) for d in steps), default=0)
+    open_ = np.zeros(n + 2 * pad, dtype=bool)  # not yet reached, and in ``ok``
+    open_[pad : pad + n] = ok
+    open_[first + pad] = False
+    frontier = (first if through is None else first[through[first]]) + pad
     depth = 0
-    while frontier.any():
+    while frontier.size:
         depth += 1
-        nxt = np.zeros(n, dtype=bool)
-        for d in deltas:
-            if d > 0:
-                nxt[d:] |= frontier[: n - d]
-            else:
-                nxt[: n + d] |= frontier[-d:]
-        nxt &= ok & ~seen
-        dist[nxt] = depth
-        seen |= nxt
-        frontier = nxt if through is None else nxt & through
+        found = []
+        for d in steps:
+            nxt = frontier + d
+            nxt = nxt[open_[nxt]]
+            open_[nxt] = False
+            found.append(nxt)
+        frontier = np.concatenate(found)
+        dist[frontier - pad] = depth
+        if through is not None:
+            frontier = frontier[through[frontier - pad]]
     return dist

@@ -4,7 +4,7 @@
 the state: target readiness, claimability, blocked moves and the action masks. The masks are
 computed by the same functions the step uses to judge actions. Target readiness changes only
 when a component arrives or is assembled; claimability only where a move touched a pick-up
-pose; both are cached and recomputed then (``_refresh_targets``, ``_recheck``).
+pose; both are cached and recomputed then (``_update_targets``, ``_recheck``).
 
 **Reach** (``Site.reach``, tower cranes): a crane may claim (or, in automatic mode, be given)
 a component only when its pick-up pose lies in the crane's zone and some compatible target
@@ -113,14 +113,45 @@ class Legality:
         return True
 
     def _refresh_targets(self) -> None:
-        """Recompute target readiness; it changes only when a component arrives or is
-        assembled, so the step calls this then and every query reads the cache."""
+        """Recompute target readiness from scratch (reset, restore); a step updates it
+        incrementally (``_update_targets``) and every query reads the cache."""
         n = self.site.n_components
+        if getattr(self, "_target_users", None) is None:
+            # Inverses of the site's static tables: per target, the components that could
+            # fill it, and the targets it supports.
+            users: list[list[int]] = [[] for _ in range(n)]
+            for c, targets in enumerate(self.site.compatible):
+                for t in targets:
+                    users[t].append(c)
+            carried: list[list[int]] = [[] for _ in range(n)]
+            for t, supports in enumerate(self.site.target_supports):
+                for s in supports:
+                    carried[s].append(t)
+            self._target_users, self._supported_by = users, carried
         self.target_ready = [self._target_ready_now(t) for t in range(n)]
         ready = self.target_ready
         compatible = self.site.compatible
-        self._has_ready = [any(ready[t] for t in compatible[c]) for c in range(n)]
+        self._ready_count = [sum(1 for t in compatible[c] if ready[t]) for c in range(n)]
+        self._has_ready = [k > 0 for k in self._ready_count]
         self._recheck.update(range(n))
+
+    def _update_targets(self, targets: list[int]) -> None:
+        """Re-judge the readiness of these targets only (a component arrived at one, or one
+        carrying them was assembled); components whose ``_has_ready`` flips are rechecked.
+        Equal to ``_refresh_targets`` (tests/test_incremental.py), but linear in what changed."""
+        ready, count, has = self.target_ready, self._ready_count, self._has_ready
+        users, recheck = self._target_users, self._recheck
+        for t in targets:
+            now = self._target_ready_now(t)
+            if now == ready[t]:
+                continue
+            ready[t] = now
+            step = 1 if now else -1
+            for c in users[t]:
+                count[c] += step
+                if (count[c] > 0) != has[c]:
+                    has[c] = not has[c]
+                    recheck.add(c)
 
     def ready_targets(self, comp: int) -> list[int]:
         """Targets this component could arrive at now."""

@@ -306,9 +306,25 @@ class Observer:
 
     def observe(self, crane: int) -> np.ndarray:
         """A fresh array (the caller may keep it) with this crane's observation."""
+        obs = self.template.copy()
+        self._write_own(crane, obs)
+        return obs
+
+    def observe_all(self) -> np.ndarray:
+        """Every crane's observation as the rows of one fresh (cranes, size) array: the
+        shared part is written into all rows by one broadcast copy of the template, then
+        each row gets its crane's own entries; row i equals ``observe(i)``."""
+        n = self.sim.n_cranes
+        out = np.empty((n, self.layout.size), dtype=np.float32)
+        out[:] = self.template
+        for crane in range(n):
+            self._write_own(crane, out[crane])
+        return out
+
+    def _write_own(self, crane: int, obs: np.ndarray) -> None:
+        """Write this crane's own entries into ``obs`` (a copy of the template)."""
         sim = self.sim
         st = sim.state
-        obs = self.template.copy()
         comp = st.held[crane]
         if comp != NOBODY:
             own = self._own_start
@@ -339,4 +355,3 @@ class Observer:
             st.n_assembled / self._n_components,
             min(st.step_count / self.step_limit, 1.0),
         )
-        return obs

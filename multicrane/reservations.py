@@ -151,9 +151,13 @@ class ShapeCache:
         self._base_key: bytes | None = None
         self._base_free: np.ndarray | None = None
         self._fit: dict[tuple[int, ...], bytes] = {}
-        self._h_cache: dict[tuple, list[int]] = {}
+        self._h_cache: dict[tuple, memoryview] = {}
         self._h_key: bytes | None = None
         self._zone_fit: dict[tuple, np.ndarray] = {}
+
+    def __getstate__(self) -> dict:
+        # The distances are memoryviews (not picklable) and only a cache: rebuilt on use.
+        return {**self.__dict__, "_h_cache": {}, "_h_key": None}
 
     def base_ok(self, sim: Simulator, rel: tuple[int, ...], zone: int = -1) -> bytes:
         """Positions where a component of this shape fits the base (no component in transit)
@@ -186,7 +190,7 @@ class ShapeCache:
 
     def heuristic(
         self, sim: Simulator, rel: tuple[int, ...], goal: int, zone: int = -1
-    ) -> list[int]:
+    ) -> memoryview:
         """Breadth-first moves to ``goal`` over walls and placed components, inside crane
         ``zone``'s reach when ``zone >= 0`` (-1: none)."""
         status = sim.state.status
@@ -202,7 +206,8 @@ class ShapeCache:
             fit = fits_everywhere(free, rel)
             if zone >= 0:
                 fit &= self.zone_fit(sim, rel, zone)
-            h = breadth_first(fit, [goal], sim.site.move_delta).tolist()
+            # A memoryview reads single entries as fast as a list, without the conversion.
+            h = memoryview(breadth_first(fit, [goal], sim.site.move_delta))
             self._h_cache[(rel, goal, zone)] = h
         return h
 
@@ -255,7 +260,7 @@ def space_time_search(
     goal: int,
     stops: set[int],
     ok: bytes,
-    h: list[int],
+    h: memoryview,
     deltas: list[int],
     slack: int,
     max_expansions: int,
@@ -279,7 +284,18 @@ def space_time_search(
     if start == goal:
         return ([start] if t_start >= free_from else None), 0
     t_cap = t_start + h0 + slack
-    conflict = res.conflict
+    get = res.get
+
+    def conflict_at(p: int, lo: int, hi: int) -> bool:
+        """``res.conflict`` of the shape's cells at position p, without building the list."""
+        for r in rel:
+            lst = get(p + r)
+            if lst:
+                for a, b, o in lst:
+                    if o != comp and a <= hi and b >= lo:
+                        return True
+        return False
+
     parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, t_start): None}
     heap = [(h0, h0, t_start, start)]
     expansions = 0
@@ -292,8 +308,7 @@ def space_time_search(
         if t >= t_cap:
             continue
         t1 = t + 1
-        here = [p + r for r in rel]
-        if conflict(here, t1, t1, comp):
+        if conflict_at(p, t1, t1):
             continue  # someone enters these cells at t1: it had to leave before
         key = (p, t1)
         if key not in parent:
@@ -309,7 +324,7 @@ def space_time_search(
             key = (q, t1)
             if key in parent:
                 continue
-            if conflict([q + r for r in rel], t, t1, comp):
+            if conflict_at(q, t, t1):
                 continue
             if q == goal:
                 if t1 < free_from:

@@ -7,7 +7,10 @@ the set's name and the seed), so a member is fully named by ``(set, seed)``.
 - ``train``: a distribution, not a list: any seed in ``TRAIN_SEEDS`` (0 .. 999,999) gives a
   site of any family, 1-4 cranes, every option on or off (``train_scenario(seed)``).
 - ``test-small``: 50 sites, seeds 1,000,000 .. 1,000,049: at most 30 components, 2-4 cranes.
-- ``test-large``: 50 sites, seeds 2,000,000 .. 2,000,049: 60-200 components, 4-16 cranes.
+- ``test-large``: 50 sites, seeds 2,000,000 .. 2,000,049: 60-200 components, 4-16 cranes;
+  the k-th seed aims at 60 + 140 k / 49 components (of 400 shapes drawn, the one nearest
+  that size whose site stays within ``MAX_SITE_CELLS``), so the sizes spread over the range;
+  its crane count is 4 + 12 j / 49 with j = 7 k mod 50 (every count, in another order).
 
 The held-out seeds lie outside ``TRAIN_SEEDS``, so no held-out site is a training site.
 Tower-crane reach is drawn only with own targets and fixed starts (see the generator).
@@ -23,8 +26,9 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
-from multicrane.generator import FAMILIES, YARDS, generate
+from multicrane.generator import FAMILIES, YARDS, generate, site_cells
 from multicrane.scenario import Scenario
+from multicrane.scenario_limits import MAX_SITE_CELLS
 
 TRAIN_SEEDS = range(0, 1_000_000)
 SET_PREFIX = "set:"
@@ -37,11 +41,12 @@ class SetRule:
     seeds: range
     components: tuple[int, int]
     cranes: tuple[int, int]
+    spread: bool = False  # sizes aimed evenly over ``components`` (else: the first that fits)
 
 
 HELD_OUT: dict[str, SetRule] = {
     "test-small": SetRule(range(1_000_000, 1_000_050), (1, 30), (2, 4)),
-    "test-large": SetRule(range(2_000_000, 2_000_050), (60, 200), (4, 16)),
+    "test-large": SetRule(range(2_000_000, 2_000_050), (60, 200), (4, 16), spread=True),
 }
 SET_NAMES = ("train", *HELD_OUT)
 
@@ -85,22 +90,38 @@ def _member(set_name: str, seed: int, rule: SetRule | None) -> Member:
     family = rng.choice(sorted(FAMILIES))
     ranges = FAMILIES[family]
     lo, hi = rule.components if rule else (1, 10**9)
-    for _ in range(10_000):
+    large = rule is not None and rule.spread
+    if large:  # sizes spread evenly over the range, by the seed's place in the set
+        k, last = seed - rule.seeds.start, max(len(rule.seeds) - 1, 1)
+        aim = lo + round(k * (hi - lo) / last)
+    best: dict[str, int] | None = None
+    opts = _options(rng, rule.cranes, True) if large else {}
+    if large:  # crane counts spread too, in another order (7 k mod 50: a permutation)
+        c_lo, c_hi = rule.cranes
+        opts["cranes"] = c_lo + round((7 * k) % (last + 1) * (c_hi - c_lo) / last)
+    for _ in range(10_000 if not large else 400):
         shape = {k: rng.randint(a, b) for k, (a, b) in ranges.items()}
-        if rule and rule.components[0] > 60:  # large sites: room for more bays and storeys
+        if large:  # room for more bays (halls, frames) and storeys (frames, towers)
             shape["bays_x"] = rng.randint(ranges["bays_x"][0], ranges["bays_x"][1] + 3)
             shape["bays_y"] = rng.randint(ranges["bays_y"][0], ranges["bays_y"][1] + 2)
-            shape["storeys"] = rng.randint(ranges["storeys"][0], ranges["storeys"][1] + 3)
+            more = 1 if family == "hall" else 3
+            shape["storeys"] = rng.randint(ranges["storeys"][0], ranges["storeys"][1] + more)
         if family == "tower":
             shape["bays_x"] = 1
-        if (
-            lo <= component_count(shape) <= hi
-            and (shape["storeys"] + 1) * shape["column_height"] <= 64
-        ):
+        n = component_count(shape)
+        if not (lo <= n <= hi and (shape["storeys"] + 1) * shape["column_height"] <= 64):
+            continue
+        if not large:
+            best = shape
             break
-    else:  # pragma: no cover - the ranges always contain a fitting shape
+        if (
+            best is None or abs(n - aim) < abs(component_count(best) - aim)
+        ) and site_cells(family, seed, **shape, **opts) <= MAX_SITE_CELLS:
+            best = shape  # the drawn shape nearest the aimed size (the first on ties)
+    if best is None:  # pragma: no cover - the ranges always contain a fitting shape
         raise RuntimeError(f"{set_name}: no {family} shape with {lo}..{hi} components")
-    params = {**shape, **_options(rng, rule.cranes if rule else (1, 4), True)}
+    shape = best
+    params = {**shape, **(opts or _options(rng, rule.cranes if rule else (1, 4), True))}
     return Member(f"{set_name}/{family}-s{seed}", family, seed, tuple(sorted(params.items())))
 
 

@@ -275,7 +275,7 @@ class Simulator(Legality):
         event = self._set_status(comp, _ARRIVED)
         st.filled[comp] = t
         st.filled_by[t] = comp
-        self._refresh_targets()
+        self._update_targets([t])  # now filled; the targets it carries wait for assembly
         out.events.append(Event(st.step_count, crane, event, comp, t))
         if self.auto:
             self._assemble(crane, comp, out)
@@ -293,7 +293,7 @@ class Simulator(Legality):
         st.held[crane] = NOBODY
         st.n_assembled += 1
         self._changed.add(comp)
-        self._refresh_targets()
+        self._update_targets(self._supported_by[int(st.filled[comp])])
         out.events.append(Event(st.step_count, crane, event, comp, int(st.filled[comp])))
         out.assembled_by.append(crane)
 

@@ -162,6 +162,8 @@ def test_obstacles_never_make_a_site_unsolvable_and_are_dropped_when_they_would(
         ({"storeys": 20, "column_height": 4}, "at most 64"),
         ({"colour": 3}, "unknown generator parameter(s) colour"),
         ({"span": 1}, "span = 1"),
+        ({"bays_y": -1}, "bays_y = -1"),
+        ({"bays_x": 0}, "bays_x = 0"),
     ],
 )
 def test_bad_parameters_are_named(params, words):
@@ -191,6 +193,9 @@ def test_held_out_sets_have_their_sizes_and_disjoint_seeds():
     for m in large:
         p = dict(m.params)
         assert 60 <= component_count(p) <= 200 and 4 <= p["cranes"] <= 16
+    sizes = [component_count(dict(m.params)) for m in large]
+    assert min(sizes) <= 65 and max(sizes) >= 195  # spread over the whole range
+    assert {dict(m.params)["cranes"] for m in large} == set(range(4, 17))
     held = {m.seed for rule in HELD_OUT for m in members(rule)}
     assert not held & set(TRAIN_SEEDS)
     assert len({m.family for m in small}) == 3 and len({m.family for m in large}) == 3
@@ -249,3 +254,19 @@ def test_evaluate_takes_a_set_and_pools_its_sites(capsys):
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "1 episodes per site x 2 sites" in out and "prioritized" in out
+
+
+def test_bench_and_compare_planners_take_a_set(capsys):
+    from multicrane.cli import main
+
+    assert main(["bench", "--scenario", "set:train:0-2", "--steps", "20"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("claims") == 2, out  # one row per site
+    argv = ["compare-planners", "--scenarios", "set:train:0-2", "e1s1", "--cranes", "1",
+            "--policies", "greedy", "--seeds", "1", "--no-bound", "--no-optimal",
+            "--no-task"]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "train/" in out and "e1s1" in out
+    assert main(["bench", "--scenario", "set:nothing", "--steps", "5"]) == 2
+    assert main(["compare-planners", "--scenarios", "set:nothing"]) == 2

@@ -154,3 +154,24 @@ def test_precedence_cycle_is_found_and_named():
     assert precedence_cycle(bad) == [0, 1, 0]
     with pytest.raises(ScenarioError, match=r"cycle \('1' -> '2' -> '1'\)"):
         check_solvable(bad)
+
+
+def test_crane_entries_past_the_limit_are_refused_naming_it():
+    text = BASE.replace("cranes = 1\n", "")
+    text += "".join("\n[[crane]]\nbase = [0, 0]\nradius = 30.0\n" for _ in range(MAX_CRANES + 1))
+    expect_error(text, "rules.cranes", str(MAX_CRANES + 1), "MAX_CRANES")
+
+
+def test_readme_documents_every_limit_with_its_value():
+    from pathlib import Path
+
+    from multicrane import scenario_limits
+
+    readme = (Path(__file__).parent.parent / "scenarios" / "README.md").read_text()
+    section = readme[readme.index("### Limits") :]
+    for name in dir(scenario_limits):
+        if name.startswith("MAX_"):
+            value = getattr(scenario_limits, name)
+            assert name in section, name
+            shown = f"{value:,}" if isinstance(value, int) and value >= 1000 else f"{value:g}"
+            assert shown in section or name in ("MAX_FILE_BYTES", "MAX_REWARD"), (name, shown)

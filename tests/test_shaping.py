@@ -106,3 +106,41 @@ def test_shaping_is_refused_in_paper_mode_and_must_be_non_negative():
     assert TrainConfig("e1s1", paper=False).shaping_weight > 0
     assert TrainConfig("e1s1", paper=False, shaping=0).shaping_weight == 0
     assert TrainConfig("E1S1", paper=True).shaping_weight == 0
+
+
+@pytest.mark.parametrize(("scenario", "cranes"), [("e3s2", 2), ("hall-4c", 4)])
+def test_incremental_potential_equals_the_formula_at_every_step(scenario, cranes):
+    """The cached potential equals ``potential_from_scratch`` along planner and random
+    steps, after snapshot/restore (the state jumps back) and across resets."""
+    from multicrane.training.shaping import potential_from_scratch
+    from policies.prioritized import PrioritizedPlanner
+
+    env = multicrane.parallel_env(scenario, n_cranes=cranes)
+    obs, _ = env.reset(seed=4)
+    phi = DistancePotential(env.sim)
+    rng = np.random.default_rng(4)
+    plan = PrioritizedPlanner(env, seed=4)
+    snap = env.sim.snapshot()
+    values = set()
+    for step in range(200):
+        value = phi()
+        assert value == potential_from_scratch(env.sim), step
+        values.add(value)
+        if step == 100:  # jump back in time: every cache must notice
+            env.sim.restore(snap)
+            assert phi() == potential_from_scratch(env.sim)
+            obs, _ = env.reset(seed=5)
+            plan = PrioritizedPlanner(env, seed=5)
+            continue
+        if not env.agents:
+            obs, _ = env.reset()
+            plan = PrioritizedPlanner(env, seed=4)
+            continue
+        if rng.random() < 0.7:
+            actions = plan(obs)
+        else:
+            actions = {
+                a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents
+            }
+        obs, *_ = env.step(actions)
+    assert len(values) > 10

@@ -39,11 +39,11 @@ def measure(path: str) -> str:
         env.reset(seed=seed)
         resets.append(time.perf_counter() - t)
     rng = np.random.default_rng(0)
-    _, infos = env.reset(seed=0)
+    obs, _ = env.reset(seed=0)
     n, t = 0, time.perf_counter()
     while n < 300 and env.agents:
-        actions = {a: int(rng.choice(np.flatnonzero(infos[a]["action_mask"]))) for a in env.agents}
-        _, _, _, _, infos = env.step(actions)
+        actions = {a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents}
+        obs, *_ = env.step(actions)
         n += 1
     step = (time.perf_counter() - t) / n
     policy = policies.make("prioritized", env, seed=0)

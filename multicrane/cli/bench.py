@@ -16,6 +16,9 @@ DESCRIPTION = """Environment throughput: joint steps per second under random leg
     multicrane bench --all          # every shipped scenario, 1 and 4 cranes
     multicrane bench --paper E1S1   # the single-agent paper mode (Gymnasium)
     multicrane bench --decisions task --scenario hall-4c --cranes 4   # task-level rounds
+    multicrane bench --scenario set:test-small --steps 2000   # every site of a named set
+    multicrane bench --scaling      # costs of generated sites of 3-121 components, 1-16 cranes
+    multicrane bench --scaling --full --plot scaling.png   # 3-490 components (needs [bench])
 
 Each joint step includes the observations and masks the environment returns and the choice of
 a random legal action per crane (from the mask, as a masked policy would). Resets are
@@ -27,6 +30,14 @@ policy's call (planning included: the prioritized rule's space-time searches) pl
 reports rounds per second and the mean and 95th percentile milliseconds per round, for the
 task-level prioritized planner and for random legal tasks, over whole episodes (seeds 0, 1,
 ...) until ``--steps`` rounds have been timed (resets excluded).
+
+With ``--scaling`` it measures how the costs grow with the site (``multicrane.scaling``):
+load, reset, joint step per crane (200 random legal steps) and the prioritized planner's
+time per decision (first 100 decisions) on generated halls. The default grid (3, 21, 121
+components x 1, 4, 16 cranes) takes about a minute; ``--full`` runs 3-490 components x 1, 2,
+4, 8, 16 cranes (several minutes). It prints a markdown table and the fitted exponents of
+cost ~ components^b x cranes^c; ``--plot FILE.png`` draws the log-log plot (matplotlib: the
+``bench`` extra, ``pip install 'multicrane[bench]'``).
 """
 
 
@@ -41,11 +52,15 @@ def register(sub) -> None:
     p.add_argument("--paper", metavar="CONFIG", nargs="*", help="paper mode configurations")
     p.add_argument("--decisions", choices=("motion", "task"), default="motion",
                    help="task: time task-level decision rounds (planning included)")
+    p.add_argument("--scaling", action="store_true",
+                   help="costs of generated sites of growing size (multicrane.scaling)")
+    p.add_argument("--full", action="store_true", help="with --scaling: the full grid")
+    p.add_argument("--plot", metavar="PNG", help="with --scaling: write the log-log plot")
     p.set_defaults(func=run)
 
 
 def bench_parallel(
-    scenario: str, cranes: int | None, steps: int, seed: int = 0, auto: bool = False
+    scenario, cranes: int | None, steps: int, seed: int = 0, auto: bool = False
 ) -> float:
     """Joint steps per second of the PettingZoo parallel environment."""
     import multicrane
@@ -83,7 +98,7 @@ def bench_paper(config: str, steps: int, seed: int = 0) -> float:
     return steps / (time.perf_counter() - start)
 
 
-def bench_task(scenario: str, cranes: int | None, rounds: int, policy: str) -> list[float]:
+def bench_task(scenario, cranes: int | None, rounds: int, policy: str) -> list[float]:
     """Seconds per task-level decision round (policy call + env.step), whole episodes from
     seed 0 on, until ``rounds`` rounds are timed."""
     import multicrane
@@ -103,29 +118,62 @@ def bench_task(scenario: str, cranes: int | None, rounds: int, policy: str) -> l
     return times
 
 
+def _runs(args: argparse.Namespace) -> list[tuple[str, object, int | None]]:
+    """(label, scenario, cranes) of each run: every shipped scenario with 1 and 4 cranes
+    (``--all``), each site of a named set (``set:NAME``), or the one scenario."""
+    import multicrane
+    from multicrane.scenario_sets import is_set_ref, resolve_set
+
+    if args.all:
+        return [(name, name, n) for name in multicrane.scenario_names() for n in (1, 4)]
+    if is_set_ref(args.scenario):
+        return [(name.split("/")[-1], s, args.cranes) for name, s in resolve_set(args.scenario)]
+    return [(args.scenario, args.scenario, args.cranes)]
+
+
 def run_task(args: argparse.Namespace) -> int:
     import multicrane
 
-    runs = (
-        [(name, n) for name in multicrane.scenario_names() for n in (1, 4)]
-        if args.all
-        else [(args.scenario, args.cranes)]
-    )
+    runs = _runs(args)
     rounds = min(args.steps, 2000) if args.steps == 20000 else args.steps
     print(f"{'scenario':<12} {'cranes':>6} {'policy':>12} {'rounds/s':>10} {'mean ms':>8} "
           f"{'p95 ms':>8}")  # fmt: skip
-    for name, n in runs:
-        shown = n if n is not None else multicrane.load_scenario(name).cranes
+    for name, scenario, n in runs:
+        shown = n if n is not None else multicrane.load_scenario(scenario).cranes
         for policy in ("prioritized", "random"):
-            t = np.array(bench_task(name, n, rounds, policy))
+            t = np.array(bench_task(scenario, n, rounds, policy))
             print(f"{name:<12} {shown:>6} {policy:>12} {1 / t.mean():>10,.0f} "
                   f"{1000 * t.mean():>8.2f} {1000 * np.percentile(t, 95):>8.2f}")  # fmt: skip
+    return 0
+
+
+def run_scaling(args: argparse.Namespace) -> int:
+    import policies
+    from multicrane import scaling
+
+    def planner(env, seed):
+        return policies.make("prioritized", env, seed=seed)
+
+    rows = []
+    for n, k in scaling.grid(args.full):
+        rows.append(scaling.measure(n, k, planner))
+        r = rows[-1]
+        print(f"{r['components']:>4} components {k:>2} cranes: load {r['load_s']:.3f} s, "
+              f"reset {1e3 * r['reset_s']:.1f} ms, step {r['step_ms']:.2f} ms, "
+              f"plan {r['plan_ms']:.2f} ms (max {r['plan_ms_max']:.1f})", flush=True)  # fmt: skip
+    print()
+    print(scaling.table(rows))
+    if args.plot:
+        scaling.plot(rows, args.plot)
+        print(f"\nwrote {args.plot}")
     return 0
 
 
 def run(args: argparse.Namespace) -> int:
     import multicrane
 
+    if args.scaling:
+        return run_scaling(args)
     if args.decisions == "task":
         return run_task(args)
 
@@ -135,21 +183,23 @@ def run(args: argparse.Namespace) -> int:
             rate = bench_paper(config, args.steps)
             print(f"{config:<12} {'paper':>7} {rate:>14,.0f}")
         return 0
-    runs = (
-        [(name, n) for name in multicrane.scenario_names() for n in (1, 4)]
-        if args.all
-        else [(args.scenario, args.cranes)]
-    )
+    try:
+        runs = _runs(args)
+    except ValueError as e:  # an unknown set name
+        from multicrane.cli.common import error
+
+        return error(str(e))
     print(f"{'scenario':<12} {'cranes':>6} {'mode':>7} {'joint steps/s':>14}")
-    for name, n in runs:
+    for name, scenario, n in runs:
         from multicrane.reach import crane_count_problem
 
-        problem = None if n is None else crane_count_problem(multicrane.load_scenario(name), n)
+        loaded = multicrane.load_scenario(scenario)
+        problem = None if n is None else crane_count_problem(loaded, n)
         if problem is not None:  # crane reach: a tower-crane scenario needs its own cranes
             print(f"{name:<12} {n:>6} skipped: {problem}")
             continue
-        rate = bench_parallel(name, n, args.steps, auto=args.auto)
-        shown = n if n is not None else multicrane.load_scenario(name).cranes
+        rate = bench_parallel(scenario, n, args.steps, auto=args.auto)
+        shown = n if n is not None else loaded.cranes
         mode = "auto" if args.auto else "claims"
         print(f"{name:<12} {shown:>6} {mode:>7} {rate:>14,.0f}")
     return 0

@@ -16,6 +16,10 @@ baselines RL must beat.
     multicrane compare-planners                                  # text tables
     multicrane compare-planners --markdown --output docs/planners.md
     multicrane compare-planners --scenarios hall-4c frame2-3c --cranes 1 4 --seeds 3
+    multicrane compare-planners --scenarios set:test-small --cranes 2 --no-bound --no-optimal
+
+A named scenario set (``set:NAME``, see ``multicrane.scenario_sets``; ``set:train:A-B`` for
+train seeds A..B-1) stands for its sites, each a row of the tables.
 
 For each scenario (default: all) and crane count (default 1 2 3 4) it plays, in the claiming
 mode, the episodes reset(seed=first + i) starts: greedy and prioritized (--seeds episodes),
@@ -31,7 +35,8 @@ POLICIES = ("greedy", "prioritized", "random")
 def register(sub) -> None:
     p = sub.add_parser("compare-planners", help="compare the classical planners",
                        description=DESCRIPTION, **formatter())  # fmt: skip
-    p.add_argument("--scenarios", nargs="+", default=None, help="default: every shipped one")
+    p.add_argument("--scenarios", nargs="+", default=None,
+                   help="shipped names or set:NAME (default: every shipped one)")  # fmt: skip
     p.add_argument("--cranes", nargs="+", type=int, default=[1, 2, 3, 4])
     p.add_argument("--policies", nargs="+", default=list(POLICIES), choices=POLICIES)
     p.add_argument("--seeds", type=int, default=5, help="episodes per setting (planners)")
@@ -57,17 +62,28 @@ def run(args: argparse.Namespace) -> int:
     from multicrane.reports.planners import Setup, run_all
     from multicrane.reports.planners_page import markdown_page, text_report
     from multicrane.reports.provenance import command_line
+    from multicrane.scenario_sets import is_set_ref, resolve_set
 
     names = multicrane.scenario_names()
-    scenarios = args.scenarios or names
-    unknown = [s for s in scenarios if s not in names]
+    scenarios, sites = [], {}
+    for ref in args.scenarios or names:
+        if is_set_ref(ref):
+            try:
+                members = resolve_set(ref)
+            except ValueError as e:
+                return error(str(e))
+            sites.update(members)
+            scenarios += [name for name, _ in members]
+        else:
+            scenarios.append(ref)
+    unknown = [s for s in scenarios if s not in names and s not in sites]
     if unknown:
         return error(f"unknown scenario(s): {', '.join(unknown)}")
     if args.seeds < 1:
         return error("--seeds must be at least 1")
     setup = Setup(scenarios, args.cranes, args.policies, args.seeds, args.random_seeds,
                   args.seed, args.optimal, args.bound, args.bound_time_limit,
-                  args.task)  # fmt: skip
+                  args.task, sites)  # fmt: skip
     makers = {name: policies.factory(name, paper=False) for name in args.policies}
     with progress.bar(setup.episodes(), "compare-planners") as advance:
         quiet = progress.enabled()

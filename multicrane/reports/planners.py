@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 from multicrane.reach import crane_count_problem
 from multicrane.rollout import evaluate, run_episode
+from multicrane.scenario import Scenario
 from multicrane.scenario_loader import load_scenario
 
 PLANNERS = ("greedy", "prioritized")
@@ -44,6 +45,12 @@ class Setup:
     bound: bool = True  # the CP-SAT makespan lower bound of each planner seed's episode
     bound_time_limit: float = 60.0  # seconds per bound
     task_cost: bool = True  # task-mode prioritized on the large scenarios: rounds and cost
+    # Scenarios given as objects (a named set's sites), by the name used in ``scenarios``.
+    sites: dict[str, Scenario] = field(default_factory=dict)
+
+    def scenario(self, name: str) -> str | Scenario:
+        """What ``name`` stands for: a site of ``sites``, else the shipped name itself."""
+        return self.sites.get(name, name)
 
     def seeds_of(self, policy: str) -> range:
         n = self.random_seeds if policy == "random" else self.seeds
@@ -161,7 +168,7 @@ def run_optimal(config: str, make_optimal: MakePolicy, seeds: range) -> Optimal:
     )
 
 
-def run_bound(name: str, n: int, seeds: range, time_limit: float) -> Bound:
+def run_bound(name: str | Scenario, n: int, seeds: range, time_limit: float) -> Bound:
     """The lower bound of each seed's episode of (scenario, cranes)."""
     from multicrane.bound import lower_bound
 
@@ -211,13 +218,13 @@ def run_all(
     start = time.perf_counter()
     for name in setup.scenarios:
         for n in setup.cranes:
-            problem = crane_count_problem(load_scenario(name), n)
+            problem = crane_count_problem(load_scenario(setup.scenario(name)), n)
             if problem is not None:  # a tower-crane scenario needs more of its cranes
                 skipped[name, n] = problem
                 if log is not None:
                     log(f"{name:<10} {n} skipped: {problem}")
                 continue
-            env = parallel_env(name, n_cranes=n)
+            env = parallel_env(setup.scenario(name), n_cranes=n)
             for policy in setup.policies:
                 seeds = setup.seeds_of(policy)
                 if not len(seeds):
@@ -253,7 +260,9 @@ def run_extras(
     """The lower bound of (scenario, cranes), and the task-mode cost on a large scenario."""
     bound = task = None
     if setup.bound and setup.seeds:
-        bound = run_bound(name, n, setup.seeds_of("prioritized"), setup.bound_time_limit)
+        bound = run_bound(
+            setup.scenario(name), n, setup.seeds_of("prioritized"), setup.bound_time_limit
+        )
         if log is not None:
             log(f"{name:<10} {n} bound {bound.values} ({bound.seconds:.1f} s)")
     motion = cells.get((name, n, "prioritized"))

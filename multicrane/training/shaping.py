@@ -24,41 +24,112 @@ from multicrane.types import Status
 
 _ASSEMBLED = int(Status.ASSEMBLED)
 _ARRIVED = int(Status.ARRIVED)
+_INITIAL = int(Status.INITIAL)
 
 
 class DistancePotential:
-    """``phi`` of the module doc for one simulator; call ``reset()`` after the env's reset."""
+    """``phi`` of the module doc for one simulator; call ``reset()`` after the env's reset.
+
+    Kept incrementally: each component's distance is cached and measured again only when
+    the component moved or changed status, or one of its compatible targets was filled or
+    freed (a step moves at most one component per crane), and the sum is kept as a running
+    total; which components changed is found by whole-array comparisons with the last call.
+    The value equals the from-scratch sum (``potential_from_scratch``; tests/test_shaping.py).
+    """
 
     def __init__(self, sim: Simulator):
         self.sim = sim
-        self._goals: dict[tuple[int, int], list[tuple[int, int, int]]] = {}
+        self._goals: dict[int, list[tuple[int, int, int, int]]] = {}
+        users: list[list[int]] = [[] for _ in range(sim.site.n_components)]
+        for c, targets in enumerate(sim.site.compatible):
+            for t in targets:
+                users[t].append(c)
+        self._users = users  # per target: the components that could fill it
+        self.reset()
 
     def reset(self) -> None:
         self._goals.clear()  # the layout (pick-up poses) may change between episodes
+        self._seen_state = self._seen_pickup = None  # what the caches were measured on
+        self._part: list[int] = []  # per component: its term of the sum
+        self._total = 0
 
-    def _goal_cells(self, comp: int, target: int) -> list[tuple[int, int, int]]:
-        key = (comp, target)
-        if key not in self._goals:
-            self._goals[key] = [
-                self.sim.site.cell(g) for g in goal_positions(self.sim, comp, [target])
+    def _goal_table(self, comp: int) -> list[tuple[int, int, int, int]]:
+        """Per goal pose of the component: (its target, its anchor cell's x, y, z)."""
+        table = self._goals.get(comp)
+        if table is None:
+            sim = self.sim
+            table = [
+                (t, *sim.site.cell(g))
+                for t in sim.site.compatible[comp]
+                for g in goal_positions(sim, comp, [t])
             ]
-        return self._goals[key]
+            self._goals[comp] = table
+        return table
+
+    def _distance(self, comp: int, here: int, filled_by: list[int]) -> int:
+        """Cells from ``here`` to the nearest goal pose of a free compatible target (0: none).
+        Plain Python: a component has a few dozen goal poses, too few for numpy to pay."""
+        x, y, z = self.sim.site.cell(here)
+        best = None
+        for t, gx, gy, gz in self._goal_table(comp):
+            if filled_by[t] != NOBODY:
+                continue
+            d = abs(gx - x) + abs(gy - y) + abs(gz - z)
+            if best is None or d < best:
+                best = d
+        return best or 0
 
     def __call__(self) -> float:
         sim = self.sim
-        total = 0
-        for comp in range(sim.site.n_components):
-            status = int(sim.state.status[comp])
-            if status in (_ASSEMBLED, _ARRIVED) or sim.state.prebuilt[comp]:
+        st = sim.state
+        # What a component's distance depends on: its status and moves (every move counts
+        # one; a claim changes the status), the pick-up poses, and the filled targets.
+        if st is not self._seen_state or st.pickup is not self._seen_pickup:
+            self._goals.clear()
+            self._seen_state, self._seen_pickup = st, st.pickup
+            self._part = [0] * sim.site.n_components
+            self._total = 0
+            stale = set(range(sim.site.n_components))
+        else:
+            moved = (st.status != self._seen_status) | (st.moves != self._seen_moves)
+            stale = set(moved.nonzero()[0].tolist())
+            refilled = (st.filled_by != self._seen_filled).nonzero()[0].tolist()
+            for t in refilled:  # a nearest free target was taken (or freed by a restore)
+                stale.update(self._users[t])
+        if stale:
+            self._seen_status = st.status.copy()
+            self._seen_moves = st.moves.copy()
+            self._seen_filled = st.filled_by.copy()
+            part = self._part
+            status, prebuilt, filled_by = st.status, st.prebuilt, st.filled_by.tolist()
+            for comp in stale:
+                s = int(status[comp])
+                if s in (_ASSEMBLED, _ARRIVED) or prebuilt[comp]:
+                    new = 0
+                else:  # measured from the pick-up pose while in the yard
+                    here = st.pickup[comp][0] if s == _INITIAL else st.cells[comp][0]
+                    new = self._distance(comp, here, filled_by)
+                self._total += new - part[comp]
+                part[comp] = new
+        return -float(self._total)
+
+
+def potential_from_scratch(sim: Simulator) -> float:
+    """``phi`` computed directly from the module doc's formula (the reference for tests)."""
+    total = 0
+    for comp in range(sim.site.n_components):
+        status = int(sim.state.status[comp])
+        if status in (_ASSEMBLED, _ARRIVED) or sim.state.prebuilt[comp]:
+            continue
+        x, y, z = sim.site.cell(current_cells(sim, comp)[0])
+        best = None
+        for t in sim.site.compatible[comp]:
+            if sim.state.filled_by[t] != NOBODY:
                 continue
-            x, y, z = sim.site.cell(current_cells(sim, comp)[0])
-            best = None
-            for t in sim.site.compatible[comp]:
-                if sim.state.filled_by[t] != NOBODY:
-                    continue
-                for gx, gy, gz in self._goal_cells(comp, t):
-                    d = abs(gx - x) + abs(gy - y) + abs(gz - z)
-                    if best is None or d < best:
-                        best = d
-            total += best or 0
-        return -float(total)
+            for g in goal_positions(sim, comp, [t]):
+                gx, gy, gz = sim.site.cell(g)
+                d = abs(gx - x) + abs(gy - y) + abs(gz - z)
+                if best is None or d < best:
+                    best = d
+        total += best or 0
+    return -float(total)
