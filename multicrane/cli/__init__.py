@@ -29,6 +29,7 @@ COMMANDS = (
     "generate",
     "bound",
     "bench",
+    "marl_bench",
     "benchmark",
     "paper_table",
     "compare_planners",

@@ -16,6 +16,8 @@ for cranes (needs the 'train' extra).
     multicrane train --paper E2S2 --algo dqn --steps 200000 --seed 0
     multicrane train --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
     multicrane train --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
+    multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
+    multicrane train --curriculum grow --steps 300000   # generated sites, set policy
 
 The run lives in --out (default runs/<name>): config.json, checkpoint/ (every
 --checkpoint-every steps and on Ctrl-C), tb/ (tensorboard --logdir runs), then model.zip and
@@ -49,6 +51,14 @@ def register(sub) -> None:
     p.add_argument("--shaping", type=float, default=None,
                    help="multi-agent: weight of the potential-based shaping term (0: off)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
+    p.add_argument("--policy", choices=("mlp", "set"), default=None,
+                   help="multi-agent task mode: 'set' for the set-based shared policy "
+                   "(default mlp; set with --curriculum)")  # fmt: skip
+    p.add_argument("--curriculum", default=None, metavar="NAME",
+                   help="train the set policy on generated 'train' sites that grow (grow, "
+                   "flat); evaluated on set:test-small sites")  # fmt: skip
+    p.add_argument("--set-limits", default=None, metavar="C,N,P",
+                   help="set policy: padded components, cranes, tasks (default: the site's)")
     p.add_argument("--out", type=Path, default=None, help="run directory")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -73,9 +83,17 @@ def build_config(args: argparse.Namespace):
             raise ValueError(f"--set {item!r}: expected KEY=VALUE")
         overrides[key.strip()] = parse_value(value.strip())
     paper = args.paper is not None
+    policy = args.policy or ("set" if args.curriculum else "mlp")
+    limits = None
+    if args.set_limits:
+        try:
+            c, n, t = (int(v) for v in args.set_limits.split(","))
+        except ValueError:
+            raise ValueError(f"--set-limits {args.set_limits!r}: expected C,N,P") from None
+        limits = {"components": c, "cranes": n, "tasks": t}
     mask = None if args.mask_blocked_moves is None else args.mask_blocked_moves == "on"
     return TrainConfig(
-        scenario=args.paper if paper else args.scenario,
+        scenario=args.paper if paper else "set:train" if args.curriculum else args.scenario,
         paper=paper,
         algo=args.algo or ("ppo" if paper else "maskable_ppo"),
         total_steps=args.steps,
@@ -88,9 +106,12 @@ def build_config(args: argparse.Namespace):
         checkpoint_every=args.checkpoint_every,
         mask_blocked_moves=mask,
         auto=args.auto,
-        decisions=args.decisions,
+        decisions="task" if args.curriculum else args.decisions,
         shaping=args.shaping,
         torch_threads=args.threads,
+        policy=policy,
+        set_limits=limits,
+        curriculum=args.curriculum,
     )
 
 
