@@ -297,3 +297,45 @@ def test_curriculum_run_moves_on_and_resumes_exactly(tiny_curriculum, tmp_path):
     sa, sb = a.policy.state_dict(), b.policy.state_dict()
     assert all(th.equal(sa[k], sb[k]) for k in sa)
     assert resumed["curriculum"] == ref["curriculum"]
+
+
+def test_worker_processes_give_the_same_rows_as_one_process():
+    from multicrane.training.set_training import _Blocks
+    from multicrane.training.set_workers import WorkerSetVecEnv
+
+    limits = {"components": 4, "cranes": 3, "tasks": 6}  # a spare row per copy
+    cfg = TrainConfig("e2s2", paper=False, n_cranes=2, decisions="task", algo="maskable_ppo",
+                      policy="set", set_limits=limits)  # fmt: skip
+    one = _Blocks(cfg, 0.99)(3)
+    many = WorkerSetVecEnv(_Blocks(cfg, 0.99), 3, 2)
+    try:
+        rng = np.random.default_rng(0)
+        for venv in (one, many):
+            venv.seed(7)
+        a, b = one.reset(), many.reset()
+        assert np.array_equal(a, b)
+        for _ in range(40):
+            masks = one.action_masks()
+            assert np.array_equal(masks, many.action_masks())
+            acts = (rng.random(masks.shape) * masks).argmax(1)
+            ra, rb = one.step(acts), many.step(acts)
+            for x, y in zip(ra[:3], rb[:3], strict=True):
+                assert np.array_equal(x, y)
+            assert [i.get("episode", {}).get("r") for i in ra[3]] == [
+                i.get("episode", {}).get("r") for i in rb[3]
+            ]
+    finally:
+        many.close()
+
+
+def test_a_policy_trained_on_small_limits_plays_a_bigger_site():
+    small = task_env("e2s2", 2)
+    model, _ = _model(SetLimits.of(small.observation_layout))
+    env = task_env("hall-4c", 4)
+    policy = SetModelPolicy(model, env)  # resized to hall-4c, same weights
+    assert policy.actor.limits.tasks >= 289
+    obs, _ = env.reset(seed=0)
+    for _ in range(5):
+        acts = policy(obs)
+        assert all(obs[a]["action_mask"][x] for a, x in acts.items())
+        obs, *_ = env.step(acts)

@@ -22,7 +22,9 @@ whole episodes (seeds 0, 1, ...; the environment's step is not counted), untrain
 unless --policy names a run. --throughput: training rows (crane decisions) per second of
 MaskablePPO on the scenario in task mode, for today's MLP defaults ('before') and the set
 policy's defaults ('after'), each for --steps rows in this process (after one warm-up
-update), with the share of the wall time spent in PPO's update. Both also report CPU time
+update), with the share of the wall time spent in PPO's update; --workers 1 2 4 repeats the
+set policy's settings with the environment copies in that many processes (CPU time then
+counts this process only). Both also report CPU time
 (this process's), steadier than wall time on a shared machine; run on an idle core for
 stable wall-time figures.
 """
@@ -85,7 +87,7 @@ def latency(scenario: str, cranes: int, rounds: int, run_dir: str | None) -> dic
             "p95_ms": float(np.percentile(ms, 95)), "cpu_ms": float(cpu_ms.mean())}  # fmt: skip
 
 
-def throughput(scenario: str, cranes: int, steps: int, which: str) -> dict:
+def throughput(scenario: str, cranes: int, steps: int, which: str, workers: int = 1) -> dict:
     """Training rows per second and the update's share of the wall time for one setting."""
     import torch as th
 
@@ -97,7 +99,8 @@ def throughput(scenario: str, cranes: int, steps: int, which: str) -> dict:
     hyper = {"policy_kwargs": {"features_extractor_kwargs": {"heads": 4}}}
     cfg = TrainConfig(scenario, paper=False, n_cranes=cranes, algo="maskable_ppo",
                       decisions="task", policy=policy,
-                      hyperparams=hyper if which == "after-attention" else {})  # fmt: skip
+                      hyperparams=hyper if which == "after-attention" else {},
+                      workers=1 if which == "before" else workers)  # fmt: skip
     run = Run(cfg, "unused", log=lambda *a: None)
     venv = make_vec_env(cfg, run.algo, run.params)
     if which not in ("before", "after", "after-attention"):
@@ -126,7 +129,9 @@ def throughput(scenario: str, cranes: int, steps: int, which: str) -> dict:
     model.learn(max(steps, per_update), reset_num_timesteps=False)
     wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
     rows = model.num_timesteps - per_update
-    return {"setting": which, "rows": int(rows), "seconds": wall, "rows_per_s": rows / wall,
+    venv.close()
+    label = which if which == "before" or workers == 1 else f"{which}-w{workers}"
+    return {"setting": label, "rows": int(rows), "seconds": wall, "rows_per_s": rows / wall,
             "rows_per_cpu_s": rows / cpu, "update_share": spent["update"] / wall,
             "rows_per_update": per_update}  # fmt: skip
 
@@ -142,7 +147,11 @@ def run(args: argparse.Namespace) -> int:
                   f"decisions, per crane decision: {r['mean_ms']:.3f} ms mean, {r['p95_ms']:.3f} "
                   f"ms p95 (wall), {r['cpu_ms']:.3f} ms CPU time (one thread)")  # fmt: skip
         if args.throughput:
-            out = [throughput(args.scenario, args.cranes, args.steps, w) for w in args.which]
+            out = [
+                throughput(args.scenario, args.cranes, args.steps, w, k)
+                for w in args.which
+                for k in ([1] if w == "before" else args.workers)
+            ]
             print(f"{'setting':<12}{'rows':>8}{'seconds':>9}{'rows/s':>9}{'rows/CPU-s':>12}"
                   f"{'update %':>10}")  # fmt: skip
             for r in out:

@@ -59,6 +59,8 @@ def register(sub) -> None:
                    "flat); evaluated on set:test-small sites")  # fmt: skip
     p.add_argument("--set-limits", default=None, metavar="C,N,P",
                    help="set policy: padded components, cranes, tasks (default: the site's)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="set policy: processes running the environment copies (default 1)")
     p.add_argument("--out", type=Path, default=None, help="run directory")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -112,6 +114,7 @@ def build_config(args: argparse.Namespace):
         policy=policy,
         set_limits=limits,
         curriculum=args.curriculum,
+        workers=args.workers,
     )
 
 

@@ -43,7 +43,8 @@ class TrainConfig:
     mode); ``set_limits``: the set policy's padded table sizes (``{"components", "cranes",
     "tasks"}``; default: the scenario's own, or the curriculum's); ``curriculum``: the name of
     a curriculum over the generator's ``train`` sites (``multicrane.training.curriculum``;
-    ``scenario`` is then ``"set:train"``), evaluated on ``set:test-small`` sites.
+    ``scenario`` is then ``"set:train"``), evaluated on ``set:test-small`` sites; ``workers``:
+    processes running the set policy's environment copies (``multicrane.training.set_workers``).
     """
 
     scenario: str = "E2S2"
@@ -67,6 +68,7 @@ class TrainConfig:
     policy: str = "mlp"
     set_limits: dict[str, int] | None = None
     curriculum: str | None = None
+    workers: int = 1
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -116,6 +118,10 @@ class TrainConfig:
     def _check_set_policy(self) -> None:
         if self.policy not in ("mlp", "set"):
             raise ConfigError(f"policy={self.policy!r}: must be 'mlp' or 'set'")
+        if not isinstance(self.workers, int) or isinstance(self.workers, bool) or self.workers < 1:
+            raise ConfigError(f"workers={self.workers!r}: must be a positive integer")
+        if self.policy == "mlp" and self.workers != 1:
+            raise ConfigError(f"workers={self.workers!r}: needs policy='set'")
         if self.policy == "mlp":
             for name in ("set_limits", "curriculum"):
                 if getattr(self, name) is not None:

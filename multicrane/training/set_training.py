@@ -58,8 +58,25 @@ def limits_of(cfg) -> SetLimits:
     return SetLimits.of(env.observation_layout)
 
 
-def make_set_vec_env(cfg, n_envs: int, gamma: float):
-    """The ``SetVecEnv`` of a run (a curriculum's sites, or copies of its scenario)."""
+class _Blocks:
+    """Builds a run's ``SetVecEnv`` of ``n`` copies in a worker process (picklable)."""
+
+    def __init__(self, cfg, gamma: float):
+        self.cfg, self.gamma = cfg, gamma
+
+    def __call__(self, n: int):
+        return make_set_vec_env(self.cfg, n, self.gamma, workers=1)
+
+
+def make_set_vec_env(cfg, n_envs: int, gamma: float, workers: int | None = None):
+    """The ``SetVecEnv`` of a run (a curriculum's sites, or copies of its scenario); with
+    ``workers`` > 1 (default: ``cfg.workers``) its copies run in that many processes
+    (``multicrane.training.set_workers``)."""
+    workers = cfg.workers if workers is None else workers
+    if workers > 1:
+        from multicrane.training.set_workers import WorkerSetVecEnv
+
+        return WorkerSetVecEnv(_Blocks(cfg, gamma), n_envs, workers)
     from multicrane.crane_env import MultiCraneEnv
     from multicrane.training.set_vec_env import SetVecEnv
 

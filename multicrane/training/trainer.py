@@ -315,6 +315,7 @@ class Run:
                 )
         if monitor.stopping:
             self.log(f"{self.cfg.name}: stopped at step {monitor.stopped_at}; resume later")
+            self.venv.close()
             return None
         return self._finish()
 
