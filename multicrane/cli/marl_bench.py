@@ -41,6 +41,14 @@ def register(sub) -> None:
     p.add_argument("--rounds", type=int, default=500, help="decision rounds timed (latency)")
     p.add_argument("--steps", type=int, default=8192, help="rows trained per setting")
     p.add_argument(
+        "--workers",
+        type=int,
+        nargs="+",
+        default=[1],
+        help="throughput of the set policy with these numbers of environment processes "
+        "(e.g. 1 2 4)",
+    )
+    p.add_argument(
         "--which",
         nargs="+",
         default=["before", "after"],
