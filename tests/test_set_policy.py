@@ -339,3 +339,33 @@ def test_a_policy_trained_on_small_limits_plays_a_bigger_site():
         acts = policy(obs)
         assert all(obs[a]["action_mask"][x] for a, x in acts.items())
         obs, *_ = env.step(acts)
+
+
+def test_marl_bench_latency_command(capsys):
+    from multicrane.cli import main
+
+    assert main(["marl-bench", "--latency", "--scenario", "e2s2", "--cranes", "2",
+                 "--rounds", "12"]) == 0  # fmt: skip
+    assert "ms CPU time" in capsys.readouterr().out
+    assert main(["marl-bench"]) == 2
+
+
+def test_train_command_options_make_a_set_config():
+    from multicrane.cli import build_parser
+    from multicrane.cli.train import build_config
+
+    parser = build_parser()
+    args = parser.parse_args(["train", "--scenario", "set:train", "--curriculum", "grow",
+                              "--workers", "2"])  # fmt: skip
+    cfg = build_config(args)
+    assert (cfg.scenario, cfg.decisions, cfg.policy, cfg.curriculum, cfg.workers) == (
+        "set:train", "task", "set", "grow", 2)  # fmt: skip
+    args = parser.parse_args(["train", "--scenario", "hall-4c", "--cranes", "4", "--decisions",
+                              "task", "--policy", "set", "--set-limits", "32,4,320"])  # fmt: skip
+    cfg = build_config(args)
+    assert cfg.set_limits == {"components": 32, "cranes": 4, "tasks": 320}
+    with pytest.raises(ValueError, match="--set-limits '3,4'"):
+        build_config(parser.parse_args(["train", "--scenario", "hall-4c", "--policy", "set",
+                                        "--set-limits", "3,4"]))  # fmt: skip
+    with pytest.raises(ValueError, match="--curriculum trains on --scenario set:train"):
+        build_config(parser.parse_args(["train", "--scenario", "e2s2", "--curriculum", "grow"]))

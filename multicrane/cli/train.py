@@ -17,7 +17,7 @@ for cranes (needs the 'train' extra).
     multicrane train --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
     multicrane train --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
-    multicrane train --curriculum grow --steps 300000   # generated sites, set policy
+    multicrane train --scenario set:train --curriculum grow --steps 300000
 
 The run lives in --out (default runs/<name>): config.json, checkpoint/ (every
 --checkpoint-every steps and on Ctrl-C), tb/ (tensorboard --logdir runs), then model.zip and
@@ -86,6 +86,8 @@ def build_config(args: argparse.Namespace):
         overrides[key.strip()] = parse_value(value.strip())
     paper = args.paper is not None
     policy = args.policy or ("set" if args.curriculum else "mlp")
+    if args.curriculum and args.scenario != "set:train":
+        raise ValueError(f"--curriculum trains on --scenario set:train, not {args.scenario!r}")
     limits = None
     if args.set_limits:
         try:
@@ -95,7 +97,7 @@ def build_config(args: argparse.Namespace):
         limits = {"components": c, "cranes": n, "tasks": t}
     mask = None if args.mask_blocked_moves is None else args.mask_blocked_moves == "on"
     return TrainConfig(
-        scenario=args.paper if paper else "set:train" if args.curriculum else args.scenario,
+        scenario=args.paper if paper else args.scenario,
         paper=paper,
         algo=args.algo or ("ppo" if paper else "maskable_ppo"),
         total_steps=args.steps,
