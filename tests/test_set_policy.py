@@ -369,3 +369,12 @@ def test_train_command_options_make_a_set_config():
                                         "--set-limits", "3,4"]))  # fmt: skip
     with pytest.raises(ValueError, match="--curriculum trains on --scenario set:train"):
         build_config(parser.parse_args(["train", "--scenario", "e2s2", "--curriculum", "grow"]))
+
+
+def test_an_untrained_greedy_policy_does_not_wait_forever():
+    env = task_env("hall-4c", 4)
+    model, _ = _model(SetLimits.of(env.observation_layout))
+    policy = SetModelPolicy(model, env)
+    obs, _ = env.reset(seed=0)
+    acts = policy(obs)
+    assert any(x != 0 for x in acts.values())  # idle cranes with tasks take one

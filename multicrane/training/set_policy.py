@@ -35,6 +35,7 @@ from torch import nn
 
 from multicrane.training.set_obs import HEADER, N_COMP, N_CRANE, N_TASK, SetLimits
 
+WAIT_BIAS = -2.0  # the wait logit's initial bias (see SetExtractor.__init__)
 BLOCKED = -1e8  # the logit of a task that is not allowed (MaskablePPO's own masked value)
 _SELF, _ALLOWED, _COMPONENT = 0, N_TASK - 1, 0  # feature columns: cranes' self, tasks'
 
@@ -72,6 +73,9 @@ class SetExtractor(BaseFeaturesExtractor):
         for head in (self.task_out[-1], self.wait_out[-1]):
             nn.init.orthogonal_(head.weight, gain=0.01)
             nn.init.zeros_(head.bias)
+        # Waiting starts unlikely: with all logits equal an untrained greedy policy would
+        # wait forever (every round one simulated step, to the step limit).
+        nn.init.constant_(self.wait_out[-1].bias, WAIT_BIAS)
 
     def split(self, obs: th.Tensor) -> dict[str, th.Tensor]:
         """The padded tables of a batch: counts (B, 3), components, cranes and tasks."""
