@@ -40,9 +40,10 @@ def main() -> int:
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     ax.plot([q["step"] for q in points], [q["steps_mean"] for q in points], marker="o",
             label="set policy (greedy evaluation)")  # fmt: skip
-    for item in args.line:
+    for i, item in enumerate(args.line):
         label, _, value = item.partition("=")
-        ax.axhline(float(value), linestyle="--", linewidth=1, label=f"{label} ({value})")
+        ax.axhline(float(value), linestyle="--", linewidth=1, color=f"C{i + 1}",
+                   label=f"{label} ({value})")  # fmt: skip
     ax.set_xlabel("crane decisions trained (rows)")
     ax.set_ylabel("mean makespan (simulated steps)")
     ax.set_title(args.title or args.run_dir.name)
