@@ -166,6 +166,10 @@ class Factory:
     def _model_policy(self, env, paper: bool):
         from multicrane.training.model_policy import model_policy
 
+        if getattr(self.config, "policy", "mlp") == "set":  # reads any task-mode site
+            if getattr(env, "decisions", None) != "task":
+                raise PolicyError(f"policy {self.name!r} is a set policy: it needs decisions=task")
+            return model_policy(self.model, env, paper, **self.options)
         space = env.observation_space if paper else env.observation_space(env.possible_agents[0])
         shape = tuple((space if paper else space["observation"]).shape)
         trained = tuple(self.model.observation_space.shape)

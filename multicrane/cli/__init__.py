@@ -30,6 +30,7 @@ COMMANDS = (
     "import_ifc",
     "bound",
     "bench",
+    "marl_bench",
     "benchmark",
     "paper_table",
     "compare_planners",

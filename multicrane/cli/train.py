@@ -17,6 +17,8 @@ for cranes (needs the 'train' extra).
     multicrane train --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
     multicrane train --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
     multicrane train --backend rllib --scenario e3s2 --cranes 2 --steps 20000 [--address auto]
+    multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
+    multicrane train --scenario set:train --curriculum grow --steps 300000
 
 The run lives in --out (default runs/<name>): config.json, checkpoint/ (every
 --checkpoint-every steps and on Ctrl-C), tb/ (tensorboard --logdir runs), then model.zip and
@@ -55,6 +57,16 @@ def register(sub) -> None:
     p.add_argument("--shaping", type=float, default=None,
                    help="multi-agent: weight of the potential-based shaping term (0: off)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
+    p.add_argument("--policy", choices=("mlp", "set"), default=None,
+                   help="multi-agent task mode: 'set' for the set-based shared policy "
+                   "(default mlp; set with --curriculum)")  # fmt: skip
+    p.add_argument("--curriculum", default=None, metavar="NAME",
+                   help="train the set policy on generated 'train' sites that grow (grow, "
+                   "flat); evaluated on set:test-small sites")  # fmt: skip
+    p.add_argument("--set-limits", default=None, metavar="C,N,P",
+                   help="set policy: padded components, cranes, tasks (default: the site's)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="set policy: processes running the environment copies (default 1)")
     p.add_argument("--out", type=Path, default=None, help="run directory")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
@@ -83,6 +95,16 @@ def build_config(args: argparse.Namespace):
             raise ValueError(f"--set {item!r}: expected KEY=VALUE")
         overrides[key.strip()] = parse_value(value.strip())
     paper = args.paper is not None
+    policy = args.policy or ("set" if args.curriculum else "mlp")
+    if args.curriculum and args.scenario != "set:train":
+        raise ValueError(f"--curriculum trains on --scenario set:train, not {args.scenario!r}")
+    limits = None
+    if args.set_limits:
+        try:
+            c, n, t = (int(v) for v in args.set_limits.split(","))
+        except ValueError:
+            raise ValueError(f"--set-limits {args.set_limits!r}: expected C,N,P") from None
+        limits = {"components": c, "cranes": n, "tasks": t}
     mask = None if args.mask_blocked_moves is None else args.mask_blocked_moves == "on"
     return TrainConfig(
         scenario=args.paper if paper else args.scenario,
@@ -98,9 +120,13 @@ def build_config(args: argparse.Namespace):
         checkpoint_every=args.checkpoint_every,
         mask_blocked_moves=mask,
         auto=args.auto,
-        decisions=args.decisions,
+        decisions="task" if args.curriculum else args.decisions,
         shaping=args.shaping,
         torch_threads=args.threads,
+        policy=policy,
+        set_limits=limits,
+        curriculum=args.curriculum,
+        workers=args.workers,
     )
 
 

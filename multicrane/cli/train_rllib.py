@@ -23,6 +23,10 @@ SB3_ONLY = {
     "checkpoint_every": 50_000,
     "mask_blocked_moves": None,
     "shaping": None,
+    "policy": None,
+    "curriculum": None,
+    "set_limits": None,
+    "workers": 1,
 }
 
 

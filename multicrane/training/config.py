@@ -38,7 +38,13 @@ class TrainConfig:
     options; ``decisions``: ``"motion"`` or ``"task"`` (the multi-agent decision level).
     ``shaping``: weight of the potential-based shaping term of the multi-agent mode
     (``multicrane.training.shaping``; default ``DEFAULT_SHAPING``; 0 turns it off).
-    ``torch_threads``: 1 unless you have cores to spare.
+    ``torch_threads``: 1 unless you have cores to spare. ``policy``: ``"mlp"`` (SB3's MLP on
+    the flat observation) or ``"set"`` (``multicrane.training.set_policy``: MaskablePPO, task
+    mode); ``set_limits``: the set policy's padded table sizes (``{"components", "cranes",
+    "tasks"}``; default: the scenario's own, or the curriculum's); ``curriculum``: the name of
+    a curriculum over the generator's ``train`` sites (``multicrane.training.curriculum``;
+    ``scenario`` is then ``"set:train"``), evaluated on ``set:test-small`` sites; ``workers``:
+    processes running the set policy's environment copies (``multicrane.training.set_workers``).
     """
 
     scenario: str = "E2S2"
@@ -59,6 +65,10 @@ class TrainConfig:
     decisions: str = "motion"
     shaping: float | None = None
     torch_threads: int = 1
+    policy: str = "mlp"
+    set_limits: dict[str, int] | None = None
+    curriculum: str | None = None
+    workers: int = 1
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -91,6 +101,7 @@ class TrainConfig:
                 raise ConfigError(f"shaping={self.shaping!r}: paper mode uses the paper's reward")
             if not isinstance(self.shaping, (int, float)) or self.shaping < 0:
                 raise ConfigError(f"shaping={self.shaping!r}: must be a number >= 0")
+        self._check_set_policy()
         if not isinstance(self.hyperparams, dict):
             raise ConfigError(f"hyperparams={self.hyperparams!r}: must be a mapping")
         from multicrane.training.algorithms import algorithm, hyperparameters
@@ -103,6 +114,49 @@ class TrainConfig:
             hyperparameters(algo, None, self.hyperparams)
         except ValueError as exc:
             raise ConfigError(f"hyperparams: {exc}") from None
+
+    def _check_set_policy(self) -> None:
+        if self.policy not in ("mlp", "set"):
+            raise ConfigError(f"policy={self.policy!r}: must be 'mlp' or 'set'")
+        if not isinstance(self.workers, int) or isinstance(self.workers, bool) or self.workers < 1:
+            raise ConfigError(f"workers={self.workers!r}: must be a positive integer")
+        if self.policy == "mlp" and self.workers != 1:
+            raise ConfigError(f"workers={self.workers!r}: needs policy='set'")
+        if self.policy == "mlp":
+            for name in ("set_limits", "curriculum"):
+                if getattr(self, name) is not None:
+                    raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
+            return
+        if self.paper or self.decisions != "task" or self.algo != "maskable_ppo":
+            raise ConfigError(
+                "policy='set' needs the multi-agent mode with decisions='task' and "
+                f"algo='maskable_ppo' (got paper={self.paper}, decisions={self.decisions!r}, "
+                f"algo={self.algo!r})"
+            )
+        if self.set_limits is not None:
+            from multicrane.training.set_obs import SetLimits
+
+            if not isinstance(self.set_limits, dict) or set(self.set_limits) != {
+                "components", "cranes", "tasks"
+            }:
+                raise ConfigError(
+                    f"set_limits={self.set_limits!r}: needs the keys components, cranes, tasks"
+                )
+            try:
+                SetLimits(**self.set_limits)
+            except ValueError as exc:
+                raise ConfigError(str(exc)) from None
+        if self.curriculum is not None:
+            from multicrane.training.curriculum import CURRICULA
+
+            if self.curriculum not in CURRICULA:
+                raise ConfigError(
+                    f"curriculum={self.curriculum!r}: one of {', '.join(CURRICULA)}"
+                )
+            if self.scenario != "set:train":
+                raise ConfigError(
+                    f"scenario={self.scenario!r}: a curriculum trains on 'set:train'"
+                )
 
     @property
     def final_eval_episodes(self) -> int:

@@ -63,9 +63,48 @@ class SharedModelPolicy:
         return {a: int(x) for a, x in zip(agents, actions, strict=True)}
 
 
+class SetModelPolicy(SharedModelPolicy):
+    """A set policy (``multicrane.training.set_policy``) acting for every crane of a task-mode
+    ``MultiCraneEnv`` of any site that fits its limits: observations and masks are padded
+    (``multicrane.training.set_obs``) and the cranes go in one batch. A site bigger than the
+    model's limits is played by a copy of the network resized to it (same weights)."""
+
+    def __init__(self, model, env, deterministic: bool = True):
+        from multicrane.training.set_obs import Padder, union
+        from multicrane.training.set_policy import SetActor
+
+        super().__init__(model, env, deterministic)
+        limits = model.policy.features_extractor.limits
+        if not limits.fits(env.observation_layout):
+            limits = union([env.observation_layout, _Layout(**limits.to_dict())])
+        self.actor = SetActor(model.policy, limits)
+        self.padder = Padder(env.observation_layout, self.actor.limits)
+
+    def __call__(self, observations: dict) -> dict:
+        agents = list(observations)
+        pad = self.padder
+        batch = np.stack([pad.pad(observations[a]["observation"]) for a in agents])
+        masks = np.stack([pad.pad_mask(observations[a]["action_mask"]) for a in agents])
+        actions = self.actor(batch, masks, self.deterministic)
+        return {a: int(x) for a, x in zip(agents, actions, strict=True)}
+
+
+class _Layout:
+    """Table sizes in ``TaskLayout``'s attribute names (for ``set_obs.union``)."""
+
+    def __init__(self, components: int, cranes: int, tasks: int):
+        self.n_components, self.n_cranes, self.n_tasks = components, cranes, tasks
+
+
+def _is_set(model) -> bool:
+    from multicrane.training.set_policy import SetPolicy
+
+    return isinstance(getattr(model, "policy", None), SetPolicy)
+
+
 def model_policy(model, env, paper: bool, deterministic: bool = True):
     """The wrapper of ``model`` for ``env``'s mode (``paper``: the single-agent mode)."""
-    cls = PaperModelPolicy if paper else SharedModelPolicy
+    cls = PaperModelPolicy if paper else SetModelPolicy if _is_set(model) else SharedModelPolicy
     return cls(model, env, deterministic=deterministic)
 
 

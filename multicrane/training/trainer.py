@@ -21,6 +21,7 @@ import platform
 import signal
 import time
 from contextlib import contextmanager
+from functools import partial
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -43,6 +44,14 @@ from multicrane.training.checkpoints import (
 from multicrane.training.config import ConfigError, TrainConfig
 from multicrane.training.model_policy import model_policy
 from multicrane.training.seeding import evaluation_seeds
+from multicrane.training.set_training import (
+    SET_COPIES,
+    evaluate_on_sites,
+    evaluation_sites,
+    make_set_model,
+    make_set_vec_env,
+    set_hyperparameters,
+)
 from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
 
 RESULT = "result.json"
@@ -76,10 +85,12 @@ def multi_env(cfg: TrainConfig):
 
 
 def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
+    gamma = float(params.get("gamma", 0.99))
+    if cfg.policy == "set":
+        return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
     n = cfg.n_envs or algo.n_envs
     if cfg.paper:
         return SeededDummyVecEnv([lambda: Monitor(paper_env(cfg, algo))] * n)
-    gamma = float(params.get("gamma", 0.99))
     return CraneVecEnv(lambda: multi_env(cfg), n, shaping=cfg.shaping_weight, gamma=gamma)
 
 
@@ -90,6 +101,8 @@ def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, opti
     """Greedy episodes of the model on the evaluation seeds: (episodes, summary), with the
     gap to the exact planner's returns on the same seeds when ``optimal`` (paper mode)."""
     seeds = evaluation_seeds(episodes)
+    if cfg.curriculum is not None:  # held-out generated sites, one episode each
+        return evaluate_on_sites(model, evaluation_sites(cfg, episodes), seeds, cfg.max_steps)
     env = paper_env(cfg, algo) if cfg.paper else multi_env(cfg)
     best = optimal_returns(env, seeds) if optimal and cfg.paper else None
     return evaluate(env, lambda e, s: model_policy(model, e, cfg.paper), seeds, optimal=best)
@@ -191,9 +204,12 @@ class Run:
         self.dir = Path(run_dir)
         self.log = log
         self.algo = algorithm(cfg.algo, cfg.paper)
-        self.params = hyperparameters(
-            self.algo, cfg.scenario if cfg.paper else None, cfg.hyperparams
-        )
+        if cfg.policy == "set":
+            self.params = set_hyperparameters(cfg.hyperparams)
+        else:
+            self.params = hyperparameters(
+                self.algo, cfg.scenario if cfg.paper else None, cfg.hyperparams
+            )
         self.progress: dict[str, Any] = {}
         self.model = None
         self.venv = None
@@ -272,9 +288,8 @@ class Run:
                 self.venv = make_vec_env(self.cfg, self.algo, self.params)
         fresh = loaded is None
         if fresh:
-            self.model = make_model(
-                self.algo, self.venv, self.cfg.seed, self.params, str(self.dir / "tb")
-            )
+            make = make_set_model if self.cfg.policy == "set" else partial(make_model, self.algo)
+            self.model = make(self.venv, self.cfg.seed, self.params, str(self.dir / "tb"))
             self.progress = {
                 "next_eval": 0,
                 "next_checkpoint": self.cfg.checkpoint_every,
@@ -300,6 +315,7 @@ class Run:
                 )
         if monitor.stopping:
             self.log(f"{self.cfg.name}: stopped at step {monitor.stopped_at}; resume later")
+            self.venv.close()
             return None
         return self._finish()
 
@@ -332,6 +348,7 @@ class Run:
             "eval_seconds": round(time.perf_counter() - start, 3),
             "steps_per_second": round(self.model.num_timesteps / max(train_seconds, 1e-9), 1),
             "sessions": self.progress["sessions"],
+            **_curriculum(self.venv),
             "versions": versions(),
             "python": platform.python_version(),
         }
@@ -352,6 +369,11 @@ def train(
     """Train ``cfg`` in ``run_dir`` (resuming what is there); the result dict (also in
     ``result.json``), or None when interrupted or stopped at ``stop_at`` steps."""
     return Run(cfg, Path(run_dir), log=log).execute(progress_bar=progress_bar, stop_at=stop_at)
+
+
+def _curriculum(venv) -> dict:
+    sites = getattr(venv, "sites", None)
+    return {"curriculum": sites.describe()} if sites is not None else {}
 
 
 def _train_return(model) -> float | None:
