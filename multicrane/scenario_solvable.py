@@ -229,18 +229,32 @@ def _fits(free: np.ndarray, extent: tuple[int, int, int]) -> np.ndarray:
 
 
 def _flood(fits: np.ndarray, start: Cell) -> np.ndarray:
-    """The positions connected to ``start`` by unit moves through fitting positions."""
+    """The positions connected to ``start`` by unit moves through fitting positions.
+
+    Sweeps whole straight runs at a time: a fitting position is reached when any position
+    of its run (the maximal line of fitting positions along an axis) is, so the number of
+    sweeps grows with the turns of the paths, not with their length.
+    """
     seen = np.zeros_like(fits)
     seen[start] = True
-    frontier = seen.copy()
-    while frontier.any():
-        grown = frontier.copy()
-        grown[1:] |= frontier[:-1]
-        grown[:-1] |= frontier[1:]
-        grown[:, 1:] |= frontier[:, :-1]
-        grown[:, :-1] |= frontier[:, 1:]
-        grown[:, :, 1:] |= frontier[:, :, :-1]
-        grown[:, :, :-1] |= frontier[:, :, 1:]
-        frontier = grown & fits & ~seen
-        seen |= frontier
-    return seen
+    count = 1
+    while True:
+        for axis in range(3):
+            seen |= _runs_reached(fits, seen, axis)
+        now = int(np.count_nonzero(seen))
+        if now == count:
+            return seen
+        count = now
+
+
+def _runs_reached(fits: np.ndarray, seen: np.ndarray, axis: int) -> np.ndarray:
+    """The fitting positions whose run along ``axis`` holds a seen fitting position."""
+    f = np.moveaxis(fits, axis, -1)
+    s = np.moveaxis(seen, axis, -1)
+    starts = f.copy()
+    starts[..., 1:] &= ~f[..., :-1]  # a run starts where the position before does not fit
+    run = np.cumsum(starts, axis=None).reshape(f.shape) * f  # 0: not fitting
+    hit = np.zeros(int(run.max()) + 1, dtype=bool)
+    hit[run[s & f]] = True
+    hit[0] = False
+    return np.moveaxis(hit[run], -1, axis)
