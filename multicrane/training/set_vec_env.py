@@ -153,22 +153,10 @@ class SetVecEnv(CraneVecEnv):
             self._lengths[copy] = env.sim.state.step_count
             self._store(copy, observations)
             if terminations[first] or truncations[first]:
-                truncated = bool(truncations[first] and not terminations[first])
-                episode = {
-                    "r": float(self._returns[copy]),
-                    "l": int(self._lengths[copy]),
-                    "t": round(time.perf_counter() - self._starts[copy], 6),
-                }
-                for j in range(n):
-                    infos[base + j] = {
-                        "terminal_observation": self._obs[base + j].copy(),
-                        "TimeLimit.truncated": truncated,
-                        "episode": episode,
-                        "is_success": bool(terminations[first]),
-                    }
-                dones[base : base + n] = True
+                success = bool(terminations[first])
+                episode = self._end_episode(copy, base, n, success, infos, dones)
                 if self.sites is not None:
-                    self.sites.record(copy, {**episode, "success": bool(terminations[first])})
+                    self.sites.record(copy, {**episode, "success": success})
                 self._reset_copy(copy)
         return self._obs.copy(), rewards, dones, infos
 

@@ -141,22 +141,29 @@ class CraneVecEnv(VecEnv):
             self._lengths[copy] = env.sim.state.step_count  # simulated steps (task mode)
             self._store(copy, observations)
             if terminations[first] or truncations[first]:
-                truncated = bool(truncations[first] and not terminations[first])
-                episode = {
-                    "r": float(self._returns[copy]),
-                    "l": int(self._lengths[copy]),
-                    "t": round(time.perf_counter() - self._starts[copy], 6),
-                }
-                for j in range(n):
-                    infos[base + j] = {
-                        "terminal_observation": self._obs[base + j].copy(),
-                        "TimeLimit.truncated": truncated,
-                        "episode": episode,
-                        "is_success": bool(terminations[first]),
-                    }
-                dones[base : base + n] = True
+                self._end_episode(copy, base, n, bool(terminations[first]), infos, dones)
                 self._reset_copy(copy)
         return self._obs.copy(), rewards, dones, infos
+
+    def _end_episode(self, copy: int, base: int, n: int, success: bool, infos: list,
+                     dones: np.ndarray) -> dict[str, Any]:  # fmt: skip
+        """Mark the copy's ``n`` crane rows done, with SB3's end-of-episode infos (the
+        terminal observation, time-limit flag, Monitor-style episode and success); the
+        episode summary."""
+        episode = {
+            "r": float(self._returns[copy]),
+            "l": int(self._lengths[copy]),
+            "t": round(time.perf_counter() - self._starts[copy], 6),
+        }
+        for j in range(n):
+            infos[base + j] = {
+                "terminal_observation": self._obs[base + j].copy(),
+                "TimeLimit.truncated": not success,
+                "episode": episode,
+                "is_success": success,
+            }
+        dones[base : base + n] = True
+        return episode
 
     # -- masks and attributes ----------------------------------------------------------------
 
