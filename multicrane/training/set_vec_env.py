@@ -120,14 +120,7 @@ class SetVecEnv(CraneVecEnv):
                 self.envs[copy] = env
         observations, _ = self.envs[copy].reset(seed=int(rng.integers(2**31)))
         self._copy_seeds[copy] = None
-        if self.shaping:
-            self._potential(copy)
-            self._phi[copy].reset()
-            self._potentials[copy] = self._potential(copy)
-        self._returns[copy] = 0.0
-        self._lengths[copy] = 0
-        self._starts[copy] = time.perf_counter()
-        self._store(copy, observations)
+        self._start_episode(copy, observations)
 
     def step_wait(self):
         rows = self.n_agents

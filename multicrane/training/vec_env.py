@@ -101,6 +101,10 @@ class CraneVecEnv(VecEnv):
     def _reset_copy(self, copy: int) -> None:
         observations, _ = self.envs[copy].reset(seed=self._copy_seeds[copy])
         self._copy_seeds[copy] = None
+        self._start_episode(copy, observations)
+
+    def _start_episode(self, copy: int, observations: dict) -> None:
+        """Zero the copy's episode counters and potential after its reset; store its rows."""
         if self.shaping:
             self._potential(copy)  # builds the potentials on first use
             self._phi[copy].reset()
