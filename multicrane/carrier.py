@@ -170,8 +170,12 @@ class Carrier:
 
     def _table(self, T: int) -> ReservationTable:
         if self._res is None:
-            self._res = ReservationTable.of_plans(self.sim, self.plans, T)
+            self._res = self._fresh_table(T)
         return self._res
+
+    def _fresh_table(self, T: int) -> ReservationTable:
+        """The reservations of every plan from ``T`` on (a hook: events add closed cells)."""
+        return ReservationTable.of_plans(self.sim, self.plans, T)
 
     def try_start(self, crane: int, comp: int, target: int) -> bool:
         """Plan ``comp`` from its pick-up pose to ``target`` for ``crane``, claimed in step
@@ -350,7 +354,7 @@ class Carrier:
         for c in transit:
             self.plans.pop(c, None)
         res.clear()
-        res.update(ReservationTable.of_plans(sim, self.plans, T))
+        res.update(self._fresh_table(T))
         order = sorted(transit, key=lambda c: self._seq.get(c, 0))
         for _ in range(3):
             left = self._plan_parked(order, T, res)

@@ -18,6 +18,13 @@ This module is the *assignment rule*; the execution (paths, the reservation tabl
 repairs and the motion actions) is the library's carrier (``multicrane.carrier``), which the
 task-level environment uses too (``policies.task_planners``).
 
+**Events** (``MultiCraneEnv(events=...)``, docs/uncertainty.md): the carrier is
+``multicrane.carrier_events.EventCarrier``. It notices a breakdown or a closure when it
+happens, freezes the components that cannot move (held by a broken crane, or inside a closed
+zone), treats closed cells as obstacles until they open, drops every plan in transit and
+replans them; a delivered component simply becomes claimable. A crane that is down takes no
+new component. Without events the planner is exactly the static one.
+
 **Paths and reservations** (``multicrane.reservations``): a planned move is never blocked,
 whatever order the cranes act in. A claim lifts the component to its pick-up pose in the
 claim step, so the pose must be free of reservations then; the search starts there. A
@@ -48,7 +55,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from multicrane.carrier import Carrier
+from multicrane.carrier_events import EventCarrier
 from multicrane.reservations import goal_position, manhattan
 from multicrane.simulator import NOBODY, Simulator
 
@@ -119,7 +126,7 @@ class PrioritizedPlanner:
 
     def _setup(self) -> None:
         self._sim_id = id(self.sim)
-        self.carrier = Carrier(self.sim, self.slack, self.max_expansions)
+        self.carrier = EventCarrier(self.sim, self.slack, self.max_expansions)
         self.stats = self.carrier.stats
         self.reset()
 
@@ -154,7 +161,7 @@ class PrioritizedPlanner:
     def _assign(self, T: int) -> None:
         """Give idle cranes ready components, best pair first (see the module doc)."""
         sim, carrier = self.sim, self.carrier
-        idle = [c for c in range(sim.n_cranes) if not carrier.busy(c)]
+        idle = [c for c in range(sim.n_cranes) if not carrier.busy(c) and carrier.crane_up(c)]
         if not idle or not carrier.may_start(T):
             return
         assign_in_rank(

@@ -1,0 +1,111 @@
+"""The carrier on a site with events: it notices breakdowns, closures and deliveries, and replans.
+
+``EventCarrier`` is ``multicrane.carrier.Carrier`` plus what a disturbed site needs; on an
+episode without events (``sim.schedule`` is None) every method is the base one, so plans,
+actions and makespans are exactly those of the static carrier.
+
+Each decision round reads what is known *now* (``multicrane.event_view``: cranes down, cells
+closed, components not delivered; never the schedule's future) and compares it with the last
+round:
+
+- **Breakdown.** A crane that goes down keeps its component (the simulator's rule); that
+  component is *frozen*: its plan is dropped, its cells are held for ever in the reservation
+  table (the others plan around it) and its target is released for other components. The
+  crane takes no new task while down. When it comes back, its component is planned again from
+  where it is, to any free ready target (``Carrier._plan_transit``).
+- **Closed zone.** Closed cells are obstacles from now on, until they open (their end is not
+  known): held for ever by the owner ``CLOSED`` in the table, so a path, a claim's pick-up
+  pose or a goal never touches them and a search with no way around fails ("wait and try
+  again"). A component with a cell inside is frozen like one held by a broken crane.
+- **Either** (a crane newly down, or cells newly closed): every plan of a component in transit
+  is dropped and all are planned again in priority order (the carrier's full replan), since
+  the plans around the frozen components and the closed cells are no longer valid.
+- **Delivery.** A delivered component becomes claimable through the simulator and is planned
+  like any other; the search's cached fit mask is rebuilt, since the component now fills cells.
+
+Frozen components, and while some zone is closed components that found no path, do not stop
+new tasks (on a static site one stranded component stops every new start until it has a
+plan, so that no new path walls it in: disruptions are finite, so it is planned again once
+they end).
+"""
+
+from __future__ import annotations
+
+from multicrane.carrier import Carrier
+from multicrane.event_view import EventView, event_view, frozen_components
+from multicrane.reservations import INF, ReservationTable
+from multicrane.types import WAIT, Status
+
+CLOSED = -2  # the owner of a closed cell's reservations (components are 0..C-1)
+_IN_TRANSIT = int(Status.IN_TRANSIT)
+
+
+class EventCarrier(Carrier):
+    """A ``Carrier`` that notices the site's events and replans (see the module doc).
+
+    ``stats`` gains ``event_replans`` (full replans caused by a breakdown or a closure) on an
+    episode with events.
+    """
+
+    def reset(self) -> None:
+        super().reset()
+        self._view: EventView | None = None
+        self._frozen: set[int] = set()
+
+    def crane_up(self, crane: int) -> bool:
+        """The crane is available now (always, without events)."""
+        return self._view is None or crane not in self._view.down
+
+    def begin(self, T: int) -> None:
+        if self._round == T:
+            return
+        view = event_view(self.sim)
+        if view is None:
+            self._view, self._frozen = None, set()
+            super().begin(T)
+            return
+        if self._round is not None and self._round > T:
+            self.reset()
+        old = self._view
+        self._view = view
+        frozen = frozen_components(self.sim, view)
+        self._frozen = frozen
+        self.stats.setdefault("event_replans", 0)
+        if old is None or old.undelivered != view.undelivered:
+            self._shapes._base_key = None  # the fit mask depends on the delivered components
+        new_down = view.down - (old.down if old else frozenset())
+        new_closed = set(view.closed) - set(old.closed if old else ())
+        if new_down or new_closed:
+            for comp in frozen:
+                self.plans.pop(comp, None)
+            self._force_replan = True
+            self.stats["event_replans"] += 1
+        super().begin(T)
+        st = self.sim.state
+        lenient = bool(view.closed)
+        self._may_start = all(
+            c in self.plans or c in frozen or lenient
+            for c in range(self.sim.site.n_components)
+            if st.status[c] == _IN_TRANSIT
+        )
+
+    def _fresh_table(self, T: int) -> ReservationTable:
+        res = super()._fresh_table(T)
+        if self._view is not None and self._view.closed:
+            res.hold(self._view.closed, T, INF, CLOSED)
+        return res
+
+    def _plan_parked(self, comps: list[int], T: int, res: ReservationTable) -> list[int]:
+        frozen = self._frozen
+        return [c for c in comps if c in frozen or not self._plan_transit(c, T, res)]
+
+    def reaches_pair(self, crane: int, comp: int, target: int) -> bool:
+        return self.crane_up(crane) and super().reaches_pair(crane, comp, target)
+
+    def _action(self, crane: int, T: int) -> int:
+        if not self.crane_up(crane):
+            return WAIT
+        return super()._action(crane, T)
+
+
+__all__ = ["CLOSED", "EventCarrier"]
