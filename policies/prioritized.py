@@ -55,6 +55,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from multicrane.carrier import Carrier
 from multicrane.carrier_events import EventCarrier
 from multicrane.reservations import goal_position, manhattan
 from multicrane.simulator import NOBODY, Simulator

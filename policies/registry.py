@@ -6,10 +6,13 @@
 
 Names (``names(paper)`` lists the built-in ones of a mode): ``random`` and ``greedy`` (both
 modes), ``prioritized`` (multi-agent mode only; with ``decisions="task"`` these three are the
-task-level planners of ``policies.task_planners``), ``optimal`` (the exact planner, single-agent
-mode only), or the path of a training run directory or of its ``model.zip`` (needs the
-``train`` extra; the model acts greedily). The mode is the environment's: a PettingZoo
-``ParallelEnv`` is the multi-agent mode, anything else the single-agent benchmark mode.
+task-level planners of ``policies.task_planners``), ``replanning`` (the prioritized planner
+by the name that says what it does on a site with events: it notices them and replans;
+the same planner), ``static-plan`` (the static baseline of ``policies.static_plan``: one
+plan at reset for the undisturbed site, executed in order; motion decisions only),
+``optimal`` (the exact planner, single-agent mode only), or the path of a training run
+directory or of its ``model.zip`` (needs the ``train`` extra; the model acts greedily). The
+mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything else the single-agent benchmark mode.
 ``options`` go to the policy's constructor (e.g. ``rank="nearest"`` for ``prioritized``,
 ``patience`` for ``greedy``, ``deterministic`` for a trained model).
 
@@ -33,8 +36,9 @@ from policies.random_policy import RandomMoves, RandomPolicy
 
 POLICY_STREAM = 1
 PAPER_NAMES = ("optimal", "greedy", "random")
-MULTI_NAMES = ("prioritized", "greedy", "random")
-NAMES = ("greedy", "optimal", "prioritized", "random")
+MULTI_NAMES = ("prioritized", "greedy", "random", "replanning", "static-plan")
+NAMES = ("greedy", "optimal", "prioritized", "random", "replanning", "static-plan")
+TASK_NAMES = ("prioritized", "greedy", "random", "replanning")
 
 
 class PolicyError(ValueError):
@@ -83,13 +87,20 @@ def _builtin(name: str, paper: bool, env=None) -> Callable[..., Any]:
 
             return lambda env, seed, **o: PaperGreedyPolicy(env, **o)
         return lambda env, seed, **o: RandomMoves(seed=policy_seed(seed), **o)
-    if name in MULTI_NAMES and _task_level(env):
+    if name == "static-plan" and _task_level(env):
+        raise PolicyError("policy 'static-plan' drives motion decisions (decisions='motion')")
+    if name in TASK_NAMES and _task_level(env):
         from policies import task_planners
 
         cls = {"prioritized": task_planners.TaskPrioritized, "greedy": task_planners.TaskGreedy,
-               "random": task_planners.TaskRandom}[name]  # fmt: skip
+               "random": task_planners.TaskRandom,
+               "replanning": task_planners.TaskPrioritized}[name]  # fmt: skip
         return lambda env, seed, **o: cls(env, seed=policy_seed(seed), **o)
-    if name == "prioritized":
+    if name == "static-plan":
+        from policies.static_plan import StaticPlan
+
+        return lambda env, seed, **o: StaticPlan(env, seed=policy_seed(seed), **o)
+    if name in ("prioritized", "replanning"):
         from policies.prioritized import PrioritizedPlanner
 
         return lambda env, seed, **o: PrioritizedPlanner(env, seed=policy_seed(seed), **o)
