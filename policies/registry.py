@@ -12,7 +12,8 @@ the same planner), ``static-plan`` (the static baseline of ``policies.static_pla
 plan at reset for the undisturbed site, executed in order; motion decisions only),
 ``optimal`` (the exact planner, single-agent mode only), or the path of a training run
 directory or of its ``model.zip`` (needs the ``train`` extra; the model acts greedily). The
-mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything else the single-agent benchmark mode.
+mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything
+else the single-agent benchmark mode.
 ``options`` go to the policy's constructor (e.g. ``rank="nearest"`` for ``prioritized``,
 ``patience`` for ``greedy``, ``deterministic`` for a trained model).
 
