@@ -34,6 +34,7 @@ COMMANDS = (
     "benchmark",
     "paper_table",
     "compare_planners",
+    "uncertainty",
     "demo",
 )
 
