@@ -1,7 +1,10 @@
 """One episode collected for the 3D replay as per-step arrays, sent with ``send_columns``.
 
 One call per entity sends a whole episode. Collecting needs no rerun; only
-:meth:`EpisodeCollector.send` imports it.
+:meth:`EpisodeCollector.send` imports it. On an episode with events (docs/uncertainty.md) a
+component not yet delivered is not drawn (it appears when it is delivered), a crane that is
+down has a red hook, the zones closed at a step are drawn as red boxes
+(``site/closed``) and the events are in the text log.
 """
 
 from __future__ import annotations
@@ -26,7 +29,15 @@ LOGGED_EVENTS = {
     "LIFT_BLOCKED": "WARN",
     "CLAIM_CONFLICT": "WARN",
     "ILLEGAL": "WARN",
+    "DELIVERED": "INFO",
+    "CRANE_DOWN": "WARN",
+    "CRANE_UP": "INFO",
+    "ZONE_CLOSED": "WARN",
+    "ZONE_OPENED": "INFO",
 }
+HOOK_UP = 0xFFDC00FF  # yellow, as the static hook colour
+HOOK_DOWN = 0xE02020FF  # red: the crane is down
+CLOSED_COLOR = (230, 40, 40, 70)
 
 
 class EpisodeCollector:
@@ -47,6 +58,8 @@ class EpisodeCollector:
         self.held: list[list[int]] = []
         self.rewards: list[float] = []
         self.events: list[list[EventRow]] = []
+        self.up: list[list[bool]] = []  # per step, each crane available (with events)
+        self.closed: list[list] = []  # per step, the (lo, hi) boxes closed (with events)
         self._capture(0.0, [])
 
     def on_step(self, env: MultiCraneEnv, actions: list[int], reward: float, events) -> None:
@@ -62,6 +75,11 @@ class EpisodeCollector:
         self.held.append(list(sim.state.held))
         self.rewards.append(reward)
         self.events.append(events)
+        schedule = getattr(sim, "schedule", None)
+        if schedule is not None:
+            t = sim.state.step_count
+            self.up.append([bool(sim.crane_up(k)) for k in range(sim.n_cranes)])
+            self.closed.append([schedule.closures[i].box for i in schedule.closures_at(t)])
 
     def boxes(self, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Box corners ``lo, hi`` (T, C, 3) of every component from step index ``start``."""
@@ -78,6 +96,9 @@ class EpisodeCollector:
             for i, c in enumerate(cells):
                 if c is not last[i]:
                     last[i] = c
+                    if not len(c):  # not delivered yet: an empty box (see ``present``)
+                        lo_now[i] = hi_now[i] = 0
+                        continue
                     # A component is a box of cells (a straight run, or a panel): the
                     # smallest and largest linear indices are its two corner cells.
                     lo_now[i] = cell(min(c))
@@ -87,6 +108,10 @@ class EpisodeCollector:
         lo[..., 2] -= 1
         hi[..., :2] += 1
         return lo, hi
+
+    def present(self) -> np.ndarray:
+        """(T, C) bool: the component is on site (delivered) at each collected step."""
+        return np.array([[len(c) > 0 for c in cells] for cells in self.cells], dtype=bool)
 
     # -- sending -----------------------------------------------------------------------------
 
@@ -104,22 +129,34 @@ class EpisodeCollector:
         time = [rr.TimeColumn(TIMELINE, sequence=steps)]
         lo, hi = self.boxes()
         status = np.stack(self.status)
+        present = self.present()
+        half = (hi - lo) / 2
+        half[~present] = 0.0
+        colors = pack_colors(status, env.sim.site.kind)
+        colors[~present] = 0  # fully transparent
         rec.send_columns(
             "components",
             indexes=time,
             columns=rr.Boxes3D.columns(
                 centers=((lo + hi) / 2).reshape(-1, 3),
-                half_sizes=((hi - lo) / 2).reshape(-1, 3),
-                colors=pack_colors(status, env.sim.site.kind).reshape(-1),
+                half_sizes=half.reshape(-1, 3),
+                colors=colors.reshape(-1),
             ).partition([n] * T),
         )
         hooks, cables = crane_geometry(env, lo, hi, np.asarray(self.held))
         k = env.sim.n_cranes
+        hook_columns = {"positions": hooks.reshape(-1, 3)}
+        if self.up:
+            hook_columns["colors"] = (
+                np.where(np.asarray(self.up), HOOK_UP, HOOK_DOWN).astype(np.uint32).reshape(-1)
+            )
         rec.send_columns(
             "cranes/hooks",
             indexes=time,
-            columns=rr.Points3D.columns(positions=hooks.reshape(-1, 3)).partition([k] * T),
+            columns=rr.Points3D.columns(**hook_columns).partition([k] * T),
         )
+        if self.closed:
+            self._send_closed(rec, rr, time)
         rec.send_columns(
             "cranes/cables",
             indexes=time,
@@ -148,6 +185,26 @@ class EpisodeCollector:
                 indexes=[rr.TimeColumn(TIMELINE, sequence=np.asarray(at, dtype=np.int64))],
                 columns=rr.TextLog.columns(text=texts, level=levels),
             )
+
+    def _send_closed(self, rec, rr, time) -> None:
+        """The closed zones of every step as boxes (none at a step: an empty batch)."""
+        centers, halves = [], []
+        for boxes in self.closed:
+            for (x0, y0, z0), (x1, y1, z1) in boxes:
+                lo = np.array([x0, y0, z0 - 1], dtype=np.float32)
+                hi = np.array([x1 + 1, y1 + 1, z1], dtype=np.float32)
+                centers.append((lo + hi) / 2)
+                halves.append((hi - lo) / 2)
+        empty = np.zeros((0, 3), dtype=np.float32)
+        rec.send_columns(
+            "site/closed",
+            indexes=time,
+            columns=rr.Boxes3D.columns(
+                centers=np.array(centers, dtype=np.float32) if centers else empty,
+                half_sizes=np.array(halves, dtype=np.float32) if halves else empty,
+                colors=[CLOSED_COLOR] * len(centers),
+            ).partition([len(b) for b in self.closed]),
+        )
 
 
 def home_positions(env: MultiCraneEnv) -> np.ndarray:
@@ -190,7 +247,13 @@ def crane_geometry(
 
 
 def event_text(env: MultiCraneEnv, etype: str, crane: int, comp: int) -> str:
+    if etype in ("ZONE_CLOSED", "ZONE_OPENED"):
+        return "a zone " + ("closes" if etype == "ZONE_CLOSED" else "opens again")
+    if etype in ("CRANE_DOWN", "CRANE_UP"):
+        return f"crane_{crane} " + ("breaks down" if etype == "CRANE_DOWN" else "is back")
     what = env.scenario.components[comp].id if comp >= 0 else "-"
+    if etype == "DELIVERED":
+        return f"{what} is delivered"
     verbs = {
         "CLAIMED": "claims",
         "ARRIVED": "brings to its target",
