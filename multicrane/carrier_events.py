@@ -21,7 +21,8 @@ round:
   is dropped and all are planned again in priority order (the carrier's full replan), since
   the plans around the frozen components and the closed cells are no longer valid.
 - **Delivery.** A delivered component becomes claimable through the simulator and is planned
-  like any other; the search's cached fit mask is rebuilt, since the component now fills cells.
+  like any other; the search's cached fit mask is rebuilt, since the component now fills cells,
+  and if a plan's path crosses the cells it appeared in, every plan in transit is replanned.
 
 Frozen components, and while some zone is closed components that found no path, do not stop
 new tasks (on a static site one stranded component stops every new start until it has a
@@ -33,7 +34,7 @@ from __future__ import annotations
 
 from multicrane.carrier import Carrier
 from multicrane.event_view import EventView, event_view, frozen_components
-from multicrane.reservations import INF, ReservationTable
+from multicrane.reservations import INF, ReservationTable, shape_of
 from multicrane.types import WAIT, Status
 
 CLOSED = -2  # the owner of a closed cell's reservations (components are 0..C-1)
@@ -71,11 +72,12 @@ class EventCarrier(Carrier):
         frozen = frozen_components(self.sim, view)
         self._frozen = frozen
         self.stats.setdefault("event_replans", 0)
-        if old is None or old.undelivered != view.undelivered:
+        delivered = set(old.undelivered - view.undelivered) if old is not None else set()
+        if old is None or delivered:
             self._shapes._base_key = None  # the fit mask depends on the delivered components
         new_down = view.down - (old.down if old else frozenset())
         new_closed = set(view.closed) - set(old.closed if old else ())
-        if new_down or new_closed:
+        if new_down or new_closed or self._crossed(delivered, T):
             for comp in frozen:
                 self.plans.pop(comp, None)
             self._force_replan = True
@@ -88,6 +90,20 @@ class EventCarrier(Carrier):
             for c in range(self.sim.site.n_components)
             if st.status[c] == _IN_TRANSIT
         )
+
+    def _crossed(self, comps: set[int], T: int) -> bool:
+        """Some plan's path from ``T`` on enters the cells of one of ``comps`` (components
+        just delivered into the yard: the plan was made while those cells were empty)."""
+        if not comps:
+            return False
+        st = self.sim.state
+        cells = {j for c in comps for j in st.cells[c]}
+        for comp, plan in self.plans.items():
+            rel = shape_of(self.sim, comp)
+            for p in set(plan.positions[max(0, T - plan.t0) :]):
+                if any(p + r in cells for r in rel):
+                    return True
+        return False
 
     def _fresh_table(self, T: int) -> ReservationTable:
         res = super()._fresh_table(T)
