@@ -60,6 +60,7 @@ class EpisodeCollector:
         self.events: list[list[EventRow]] = []
         self.up: list[list[bool]] = []  # per step, each crane available (with events)
         self.closed: list[list] = []  # per step, the (lo, hi) boxes closed (with events)
+        self.delivered: list[np.ndarray] = []  # per step, each component on site (with events)
         self._capture(0.0, [])
 
     def on_step(self, env: MultiCraneEnv, actions: list[int], reward: float, events) -> None:
@@ -76,9 +77,11 @@ class EpisodeCollector:
         self.rewards.append(reward)
         self.events.append(events)
         schedule = getattr(sim, "schedule", None)
+        st_cells = sim.state.cells
         if schedule is not None:
             t = sim.state.step_count
             self.up.append([bool(sim.crane_up(k)) for k in range(sim.n_cranes)])
+            self.delivered.append(np.array([sim.delivered(c) for c in range(len(st_cells))]))
             self.closed.append([schedule.closures[i].box for i in schedule.closures_at(t)])
 
     def boxes(self, start: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -96,9 +99,6 @@ class EpisodeCollector:
             for i, c in enumerate(cells):
                 if c is not last[i]:
                     last[i] = c
-                    if not len(c):  # not delivered yet: an empty box (see ``present``)
-                        lo_now[i] = hi_now[i] = 0
-                        continue
                     # A component is a box of cells (a straight run, or a panel): the
                     # smallest and largest linear indices are its two corner cells.
                     lo_now[i] = cell(min(c))
@@ -111,7 +111,9 @@ class EpisodeCollector:
 
     def present(self) -> np.ndarray:
         """(T, C) bool: the component is on site (delivered) at each collected step."""
-        return np.array([[len(c) > 0 for c in cells] for cells in self.cells], dtype=bool)
+        if self.delivered:
+            return np.stack(self.delivered)
+        return np.ones((len(self.cells), self.env.sim.site.n_components), dtype=bool)
 
     # -- sending -----------------------------------------------------------------------------
 

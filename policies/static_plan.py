@@ -98,12 +98,19 @@ class StaticPlan:
         self.stood = 0
         self.fallback: PrioritizedPlanner | None = None
         self.stats = {"plan_steps": len(self.actions), "waits": 0, "fallback": 0}
+        view = event_view(sim)
+        self._late = sorted(view.undelivered) if view is not None else []
         self._episode = (id(sim.state), id(sim.start))
 
     def _matches(self, planned: _PlannedState) -> bool:
         """The site is in the plan's state before step ``tau`` (or ahead in assemblies)."""
-        st = self.env.sim.state
+        sim = self.env.sim
+        st = sim.state
         status = st.status
+        if self._late:
+            self._late = [c for c in self._late if not sim.delivered(c)]
+            if self._late:
+                return False  # the plan has them on site from the start
         for comp, cells in enumerate(planned.cells):
             s, p = status[comp], planned.status[comp]
             if s != p and not (p == _ARRIVED and s == _ASSEMBLED):

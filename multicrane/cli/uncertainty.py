@@ -15,7 +15,9 @@ level x policy, the completion rate and the makespan of the completed episodes (
 confidence interval), beside the undisturbed site's proven lower bound (OR-Tools CP-SAT).
 
     multicrane uncertainty
-    multicrane uncertainty --scenarios e2s2 --levels none high --seeds 3 --out runs/unc
+    multicrane uncertainty --scenarios e2s2:2 --levels none high --seeds 3 --out runs/unc
+
+A scenario may name its crane count after a colon (e2s2:2); else --cranes, else its own.
 
 Policies (--policies): static-plan (one plan at reset for the undisturbed site, executed in
 order), replanning (the prioritized planner, which notices events and replans), greedy,
@@ -24,7 +26,7 @@ writes results.json, table.md and uncertainty.png (the plot needs matplotlib: th
 extra). One process; --bound-time 0 skips the bound.
 """
 
-DEFAULT_SCENARIOS = ("e2s2", "frame2-3c", "hall-4c")
+DEFAULT_SCENARIOS = ("e2s2:2", "frame2-3c", "hall-4c")
 DEFAULT_POLICIES = ("static-plan", "replanning", "greedy")
 
 
@@ -45,6 +47,16 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+def scenario_and_cranes(text: str, cranes: int | None):
+    """``name`` or ``name:N`` -> (Scenario, crane count or None)."""
+    import multicrane
+
+    name, sep, count = text.rpartition(":")
+    if not sep or not count.isdigit():
+        return multicrane.load_scenario(text), cranes
+    return multicrane.load_scenario(name), int(count)
+
+
 def run(args: argparse.Namespace) -> int:
     import multicrane
     import policies
@@ -53,13 +65,13 @@ def run(args: argparse.Namespace) -> int:
     try:
         seeds = episode_seeds(args.seeds, args.episodes)
         factories = {name: policies.factory(name, paper=False) for name in args.policies}
-        scenarios = [multicrane.load_scenario(name) for name in args.scenarios]
+        scenarios = [scenario_and_cranes(name, args.cranes) for name in args.scenarios]
     except (ValueError, multicrane.ScenarioError, OSError) as exc:
         return error(exc, 1)
     makers = {f.label: f for f in factories.values()}
     began = time.perf_counter()
     cells, bounds = run_benchmark(
-        scenarios, args.levels, makers, seeds, args.cranes, args.bound_time,
+        scenarios, args.levels, makers, seeds, args.bound_time,
         progress=lambda line: print(line, flush=True),
     )  # fmt: skip
     wall = time.perf_counter() - began

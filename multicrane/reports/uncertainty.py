@@ -88,7 +88,7 @@ def run_cell(
 
     began = time.perf_counter()
     env = MultiCraneEnv(scenario, n_cranes=n_cranes, events=level)
-    cell = Cell(env.scenario.name, env.n_cranes, level, policy)
+    cell = Cell(env.scenario.name, env.sim.n_cranes, level, policy)
     for seed in seeds:
         result = run_episode(env, make_policy(env, seed), seed=seed)
         cell.seeds.append(seed)
@@ -109,17 +109,17 @@ def undisturbed_bound(scenario, n_cranes: int | None, seeds: Sequence[int],
 
 
 def run_benchmark(
-    scenarios: Iterable, levels: Sequence[str], policies: dict[str, MakePolicy],
-    seeds: Sequence[int], n_cranes: int | None = None, bound_time: float = 10.0,
+    scenarios: Iterable[tuple], levels: Sequence[str], policies: dict[str, MakePolicy],
+    seeds: Sequence[int], bound_time: float = 10.0,
     progress: Callable[[str], None] | None = None,
 ) -> tuple[list[Cell], list[Bound]]:  # fmt: skip
     """Every scenario x level x policy cell, and each scenario's bound (``bound_time`` <= 0:
-    no bound)."""
+    no bound); ``scenarios``: (scenario, crane count or None for its own) pairs."""
     for level in levels:
         if level not in LEVELS:
             raise ValueError(f"level must be one of {', '.join(LEVELS)}, got {level!r}")
     cells, bounds = [], []
-    for scenario in scenarios:
+    for scenario, n_cranes in scenarios:
         if bound_time > 0:
             bounds.append(undisturbed_bound(scenario, n_cranes, seeds, bound_time))
         for level in levels:
@@ -151,7 +151,7 @@ def markdown_table(cells: list[Cell], bounds: list[Bound]) -> str:
     """Scenario x level rows, one column per policy: ``mean [95 % CI] (completion)``, and
     the undisturbed bound's mean over seeds."""
     names = list(dict.fromkeys(c.policy for c in cells))
-    bound_of = {b.scenario: b for b in bounds}
+    bound_of = {(b.scenario, b.n_cranes): b for b in bounds}
     head = ["scenario", "cranes", "events", *names]
     if bounds:
         head.append("bound (undisturbed)")
@@ -165,7 +165,7 @@ def markdown_table(cells: list[Cell], bounds: list[Bound]) -> str:
             c = by.get(name)
             out.append("" if c is None else f"{fmt_mean(c)} ({c.completion:.0%})")
         if bounds:
-            b = bound_of.get(scenario)
+            b = bound_of.get((scenario, n))
             out.append("" if b is None else f"{b.mean:.1f}")
         lines.append("| " + " | ".join(out) + " |")
     return "\n".join(lines)

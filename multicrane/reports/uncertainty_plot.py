@@ -1,8 +1,8 @@
 """The uncertainty benchmark's plot: makespan per disruption level and policy, as a PNG file.
 
-One panel per scenario; per level a group of bars (one per policy: mean makespan of the
-completed episodes, 95 % confidence interval as error bars, completion rate written above
-when below 100 %) and a dashed line at the undisturbed site's lower bound. matplotlib (the
+One panel per scenario and crane count; per level a group of bars (one per policy: mean
+makespan of the completed episodes, 95 % confidence interval as error bars, completion rate
+written above when below 100 %) and a dashed line at the undisturbed site's lower bound. matplotlib (the
 ``bench`` extra) is imported only here, through its object API with the Agg canvas.
 """
 
@@ -20,11 +20,11 @@ def plot(cells: list[Cell], bounds: list[Bound], path: str | Path) -> Path:
         from matplotlib.figure import Figure
     except ImportError:
         raise RuntimeError("the plot needs matplotlib: pip install 'multicrane[bench]'") from None
-    scenarios = list(dict.fromkeys(c.scenario for c in cells))
+    scenarios = list(dict.fromkeys((c.scenario, c.n_cranes) for c in cells))
     levels = list(dict.fromkeys(c.level for c in cells))
     names = list(dict.fromkeys(c.policy for c in cells))
-    by = {(c.scenario, c.level, c.policy): c for c in cells}
-    bound_of = {b.scenario: b for b in bounds}
+    by = {((c.scenario, c.n_cranes), c.level, c.policy): c for c in cells}
+    bound_of = {(b.scenario, b.n_cranes): b for b in bounds}
     fig = Figure(figsize=(4.2 * len(scenarios), 3.6))
     FigureCanvasAgg(fig)
     width = 0.8 / max(len(names), 1)
@@ -51,7 +51,7 @@ def plot(cells: list[Cell], bounds: list[Bound], path: str | Path) -> Path:
                        label="bound (undisturbed)")  # fmt: skip
         ax.set_xticks(range(len(levels)), levels)
         ax.set_xlabel("disruption level")
-        ax.set_title(scenario, fontsize=10)
+        ax.set_title(f"{scenario[0]} ({scenario[1]} cranes)", fontsize=10)
         if i == 0:
             ax.set_ylabel("makespan (steps)")
             ax.legend(fontsize=7, loc="upper left")
