@@ -2,8 +2,9 @@
 
 One panel per scenario and crane count; per level a group of bars (one per policy: mean
 makespan of the completed episodes, 95 % confidence interval as error bars, completion rate
-written above when below 100 %) and a dashed line at the undisturbed site's lower bound. matplotlib (the
-``bench`` extra) is imported only here, through its object API with the Agg canvas.
+written above when below 100 %) and a dashed line at the undisturbed site's lower bound.
+matplotlib (the ``bench`` extra) is imported only here, through its object API with the Agg
+canvas.
 """
 
 from __future__ import annotations
