@@ -12,6 +12,7 @@ from pettingzoo import ParallelEnv
 
 from multicrane import reward as reward_rules
 from multicrane.env_infos import TaskStepFacts, crane_infos
+from multicrane.events import EventSpec, resolve
 from multicrane.observation import Observer
 from multicrane.render import render_ansi
 from multicrane.scenario import Scenario
@@ -115,7 +116,10 @@ class MultiCraneEnv(ParallelEnv):
     ``"task"``), ``reward`` (``"paper"`` or ``"makespan"``), ``reward_mode`` (``"team"`` or
     ``"split"``), ``obs_format`` (``"dict"`` or ``"flat"``), ``info_events`` (False),
     ``info_mask`` (default: True for ``"flat"``, else False), ``task_patience`` (20),
-    ``task_site_planes`` (False).
+    ``task_site_planes`` (False), ``events`` (None: the scenario's ``[events]`` table if any,
+    else none; ``"none"``, ``"low"``, ``"high"`` or an ``EventSpec``: late deliveries, crane
+    breakdowns and closed zones drawn from the seed given to ``reset``; the observation then
+    gains the events block, and ``infos`` ``site_event_counts``; see ``docs/uncertainty.md``).
 
     **Version history.** v0: first release. v1: numeric infos by default (``info_events``,
     ``info_mask``), task-level decisions, reward options, crane reach, the global ``state()``.
@@ -147,6 +151,7 @@ class MultiCraneEnv(ParallelEnv):
         obs_format: str = "dict",
         info_events: bool = False,
         info_mask: bool | None = None,
+        events: EventSpec | str | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None, 'ansi' or 'human', got {render_mode!r}")
@@ -171,7 +176,10 @@ class MultiCraneEnv(ParallelEnv):
         self.reward = reward
         self.scenario = load_scenario(scenario)
         n_cranes = crane_count(n_cranes)
-        self.sim = Simulator(self.scenario, n_cranes=n_cranes, auto=auto)
+        limit = as_integer(max_steps, "max_steps") if max_steps is not None else None
+        self.step_limit = limit if limit is not None else self.scenario.step_limit
+        spec = resolve(events, self.scenario)
+        self.sim = Simulator(self.scenario, n_cranes, auto, spec, self.step_limit)
         self.task_mode: TaskMode | None = None
         if decisions == "task":
             self.task_mode = TaskMode(self, task_patience, task_site_planes)
@@ -182,8 +190,6 @@ class MultiCraneEnv(ParallelEnv):
         self.auto = auto
         self.strict = strict
         self.render_mode = render_mode
-        limit = as_integer(max_steps, "max_steps") if max_steps is not None else None
-        self.step_limit = limit if limit is not None else self.scenario.step_limit
         if self.step_limit < 1:
             raise ValueError(f"max_steps must be at least 1, got {max_steps!r}")
         n = self.sim.n_cranes
@@ -203,6 +209,7 @@ class MultiCraneEnv(ParallelEnv):
         self.state_space = spaces.Box(0.0, 1.0, (n * self.observer.layout.size,), np.float32)
         self._state = np.zeros(self.state_space.shape, dtype=np.float32)
         self.last_events: list[tuple[Event, ...]] = [() for _ in range(n)]
+        self.last_site_events: tuple = ()  # the schedule's events of the last step or reset
         self.cycles = 0
         self._human = None
         self._rng: np.random.Generator | None = None
@@ -230,7 +237,7 @@ class MultiCraneEnv(ParallelEnv):
         if seed is not None or self._rng is None:
             self._rng = np.random.default_rng(seed)
         self.cycles = 0
-        self.sim.reset(self._rng)
+        self.sim.reset(self._rng, schedule=(options or {}).get("schedule"))
         self.observer.reset(self.step_limit)
         self.agents = list(self.possible_agents)
         self.total_reward = 0.0
@@ -239,6 +246,7 @@ class MultiCraneEnv(ParallelEnv):
         observations = self._observe()
         n = self.sim.n_cranes
         self.last_events = [() for _ in range(n)]
+        self.last_site_events = tuple(self.sim.site_log)
         task = None
         if self.task_mode is not None:
             task = TaskStepFacts([() for _ in range(n)], 0, 0)
@@ -251,7 +259,7 @@ class MultiCraneEnv(ParallelEnv):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode: call reset() first")
         joint = self._joint_action(actions)
-        n = self.sim.n_cranes
+        n, mark = self.sim.n_cranes, len(self.sim.site_log)
         task = None
         if self.task_mode is not None:
             r, terms, per_crane, task = self.task_mode.step(joint)
@@ -263,6 +271,7 @@ class MultiCraneEnv(ParallelEnv):
             per_crane = [tuple(x) for x in lists]
         self.cycles += 1
         self.last_events = per_crane
+        self.last_site_events = tuple(self.sim.site_log[mark:])
         complete = self.sim.done
         self.total_reward += r
         truncated = not complete and (
@@ -293,6 +302,7 @@ class MultiCraneEnv(ParallelEnv):
             events=self.info_events,
             mask=self.info_mask,
             task=task,
+            site=self.last_site_events if self.sim.events is not None else None,
         )
 
     def _physical_step(self, joint: list[int]):

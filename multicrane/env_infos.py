@@ -7,6 +7,8 @@ holds only numbers:
 - ``event_counts``: ``int32`` array, one count per ``EventType`` (in its order: index ``i``
   counts ``EventType(i)``) of this crane's events in the step;
 - ``reward_term``: this crane's share of the team reward (the shares add up to it);
+- with site events (``events=``) only: ``site_event_counts`` (``int32``, one count per
+  ``SiteEventType``) of the site's events in the step (the same for every crane);
 - task level only: ``task_event_counts`` (``int32``, one count per ``TASK_EVENTS`` name),
   ``elapsed`` (simulated steps of the step) and ``crane_steps`` (busy crane x step pairs).
 
@@ -23,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from multicrane.types import Event, EventType
+from multicrane.types import Event, EventType, SiteEvent, SiteEventType
 
 N_EVENT_TYPES = len(EventType)
 TASK_EVENTS = ("TASK_STARTED", "TASK_HELD", "TASK_DROPPED", "TASK_REFUSED", "TASK_DONE")
@@ -33,6 +35,14 @@ _TASK_INDEX = {name: i for i, name in enumerate(TASK_EVENTS)}
 def event_counts(events: Iterable[Event]) -> np.ndarray:
     """How many events of each ``EventType`` (``int32``, ``len(EventType)`` entries)."""
     out = np.zeros(N_EVENT_TYPES, dtype=np.int32)
+    for e in events:
+        out[int(e.type)] += 1
+    return out
+
+
+def site_event_counts(events: Iterable[SiteEvent]) -> np.ndarray:
+    """How many site events of each ``SiteEventType`` (``int32``)."""
+    out = np.zeros(len(SiteEventType), dtype=np.int32)
     for e in events:
         out[int(e.type)] += 1
     return out
@@ -65,14 +75,18 @@ def crane_infos(
     events: bool,
     mask: bool,
     task: TaskStepFacts | None = None,
+    site: Sequence[SiteEvent] | None = None,
 ) -> dict[str, dict[str, Any]]:
     """``infos`` of one step (or reset) of the multi-agent environment (see the module doc)."""
     infos: dict[str, dict[str, Any]] = {}
+    site_counts = None if site is None else site_event_counts(site)
     for i, a in enumerate(agents):
         info: dict[str, Any] = {
             "event_counts": event_counts(per_crane[i]),
             "reward_term": float(terms[i]),
         }
+        if site_counts is not None:
+            info["site_event_counts"] = site_counts.copy()
         if task is not None:
             info["task_event_counts"] = task_event_counts(task.per_crane[i])
             info["elapsed"] = task.elapsed

@@ -10,6 +10,12 @@ pose; both are cached and recomputed then (``_update_targets``, ``_recheck``).
 a component only when its pick-up pose lies in the crane's zone and some compatible target
 in the zone is free (for a beam or panel: ready); a move whose new cells leave the holder's
 zone is not legal. Without reach (``_zones is None``) none of this runs.
+
+**Site events** (``multicrane.events``; only with a schedule): a component not yet delivered
+cannot be claimed; a crane that is down may only wait; no component cell may enter a closed
+cell (moves, lifts), a component with a cell in a closed cell cannot move or be lifted, and a
+target with a closed cell is not ready. ``_closing`` is False while no cell is closed, so
+without events the checks cost one attribute test.
 """
 
 from __future__ import annotations
@@ -40,6 +46,9 @@ class Legality:
     _status: memoryview
     _zones: list | None  # Site.reach: per crane, the cells it reaches; None: no reach
     _zone_targets: list[list[list[int]]]  # per crane, per component: compatible targets in zone
+    _closing: bool  # some cell is closed now (see Simulator: site events)
+    _closed: np.ndarray  # (P,) bool: cells closed now
+    _down: list[bool]  # per crane: down now
 
     # -- queries shared by the rules and the masks -------------------------------------------
 
@@ -101,10 +110,39 @@ class Legality:
                 return False
         return True
 
+    def open_cells(self, cells: list[int]) -> bool:
+        """No cell is closed now (always True while nothing is closed)."""
+        if not self._closing:
+            return True
+        closed = self._closed
+        return not any(closed[j] for j in cells)
+
+    def crane_up(self, crane: int) -> bool:
+        """The crane is available now (not broken down)."""
+        return not self._down[crane]
+
+    def delivered(self, comp: int) -> bool:
+        """The component is on site (always True without late deliveries)."""
+        return bool(self.state.delivered[comp])
+
+    def _lift_ok(self, comp: int) -> bool:
+        """A delivered component's pick-up pose is free, and neither it nor its cells are
+        closed."""
+        st = self.state
+        pick = st.pickup[comp]
+        if not self.fits(comp, pick):
+            return False
+        if self._closing:
+            return self.open_cells(pick) and self.open_cells(st.cells[comp])
+        return True
+
     def _target_ready_now(self, t: int) -> bool:
-        """A target can be filled: it is free and all its supports are assembled."""
+        """A target can be filled: it is free, all its supports are assembled and none of
+        its cells is closed."""
         filled_by = self.state.filled_by
         if filled_by[t] != NOBODY:
+            return False
+        if self._closing and not self.open_cells(self.site.target_cells[t]):
             return False
         for s in self.site.target_supports[t]:
             f = filled_by[s]
@@ -159,7 +197,9 @@ class Legality:
         return [t for t in self.site.compatible[comp] if ready[t]]
 
     def can_lift(self, comp: int) -> bool:
-        return self._status[comp] == _INITIAL and self.fits(comp, self.state.pickup[comp])
+        return (
+            self._status[comp] == _INITIAL and self.state.delivered[comp] and self._lift_ok(comp)
+        )
 
     def claimable(self, comp: int) -> bool:
         """An initial, unclaimed component whose pick-up pose is free and that has somewhere
@@ -168,7 +208,8 @@ class Legality:
         return (
             self._status[comp] == _INITIAL
             and self.state.holder[comp] == NOBODY
-            and self.fits(comp, self.state.pickup[comp])
+            and self.state.delivered[comp]
+            and self._lift_ok(comp)
             and (not self.site.waits[comp] or self._has_ready[comp])
         )
 
@@ -186,12 +227,16 @@ class Legality:
             # ``claimable(c)`` inlined: this runs for every component a step touched.
             status, holder, pickup = self._status, self.state.holder, self.state.pickup
             waits, has_ready, fits = self.site.waits, self._has_ready, self.fits
+            delivered, closing, open_cells = self.state.delivered, self._closing, self.open_cells
+            cells = self.state.cells
             for c in recheck:
                 if (
                     status[c] == _INITIAL
                     and holder[c] == NOBODY
                     and fits(c, pickup[c])
                     and (not waits[c] or has_ready[c])
+                    and delivered[c]
+                    and (not closing or (open_cells(pickup[c]) and open_cells(cells[c])))
                 ):
                     claimable.add(c)
                 else:
@@ -215,6 +260,12 @@ class Legality:
             v = occ[j + d]
             if v != FREE and v != own:
                 return False
+        if self._closing:
+            closed = self._closed
+            if any(closed[j] or closed[j + d] for j in cells):
+                return False
+            if self._status[comp] == _INITIAL and not self.open_cells(self.state.cells[comp]):
+                return False
         return True
 
     def action_mask(self, crane: int) -> np.ndarray:
@@ -228,8 +279,9 @@ class Legality:
         masks[:, WAIT] = 1
         claims = None
         assembling, pass_over, held = st.assembling, st.pass_over, st.held
+        down = self._down
         for crane in range(self.n_cranes):
-            if assembling[crane] or pass_over[crane]:
+            if assembling[crane] or pass_over[crane] or down[crane]:
                 continue
             row = masks[crane]
             comp = held[crane]
@@ -256,6 +308,8 @@ class Legality:
     def moves_ok(self, comp: int) -> list[bool]:
         """``move_ok`` for the six moves at once."""
         cells = self._from_cells(comp)
+        if self._closing:
+            return [self.move_ok(comp, m) for m in range(N_MOVES)]
         occ = self._occ
         own = comp + 1
         out = []

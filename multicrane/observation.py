@@ -24,6 +24,12 @@ Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening)
    move limit (clipped to 1), past the move limit, assembly steps left / assembly steps,
    pass-over pending, fraction of components assembled, fraction of the step limit used.
 
+4. ``events`` (only when the simulator has site events, ``multicrane.events``; so without
+   them the spaces are as before): per component ``delivered`` (C), per crane ``available``
+   (N, not broken down) and the ``closed`` plan (X, Y: the height of the highest closed cell
+   above (x, y), divided by the site height). A component not yet delivered is not drawn in
+   the planes and its table row is all zero: only its ``delivered`` 0 is known.
+
 Channels 0-6 are shared by all cranes and kept up to date incrementally: a ``uint8`` bit grid
 holds one bit per channel per cell, and only the (x, y) columns whose bits changed are
 recomputed each step. One policy can act for every crane: all per-crane facts are in
@@ -79,6 +85,7 @@ class ObservationLayout:
     plan: tuple[int, int]  # (X, Y)
     n_components: int
     n_shared: int = N_SHARED
+    n_cranes: int = 0  # > 0: the events block is present (see the module doc)
 
     @property
     def shared(self) -> slice:
@@ -100,8 +107,14 @@ class ObservationLayout:
         return slice(start, start + CRANE_FEATURES)
 
     @property
+    def events(self) -> slice:
+        start = self.crane.stop
+        n = self.n_components + self.n_cranes + self.plan[0] * self.plan[1] if self.n_cranes else 0
+        return slice(start, start + n)
+
+    @property
     def size(self) -> int:
-        return self.crane.stop
+        return self.events.stop
 
     def split(self, obs: np.ndarray) -> dict[str, np.ndarray]:
         """The flat vector as ``planes`` (X, Y, 9), ``components`` (C, 14) and ``crane`` (9,)."""
@@ -110,11 +123,18 @@ class ObservationLayout:
             [obs[self.shared].reshape(X, Y, N_SHARED), obs[self.own].reshape(X, Y, N_OWN)],
             axis=-1,
         )
-        return {
+        out = {
             "planes": planes,
             "components": obs[self.components].reshape(self.n_components, COMPONENT_FEATURES),
             "crane": obs[self.crane],
         }
+        if self.n_cranes:
+            ev = obs[self.events]
+            C, N = self.n_components, self.n_cranes
+            out["delivered"] = ev[:C]
+            out["available"] = ev[C : C + N]
+            out["closed"] = ev[C + N :].reshape(X, Y)
+        return out
 
 
 class Observer:
@@ -127,7 +147,10 @@ class Observer:
         self.plan = (X, Y)
         self.height = H
         self.spec = planes
-        self.layout = lay = ObservationLayout((X, Y), sim.site.n_components, planes.n)
+        self._events = sim.events is not None
+        self.layout = lay = ObservationLayout(
+            (X, Y), sim.site.n_components, planes.n, sim.n_cranes if self._events else 0
+        )
         self._own_start = lay.own.start
         self._components_start = lay.components.start
         self._crane = lay.crane
@@ -210,6 +233,7 @@ class Observer:
         for t in range(sim.site.n_components):
             self._paint([], 0, (1 << FREE_TARGET) | (1 << ANY_TARGET), sim.site.target_cells[t])
         self._ready: set[int] = set()
+        self._closed_seen = None
 
     def _paint(
         self, cells: list[int], bits: int, new_bits: int, new_cells: list[int] | None = None
@@ -243,6 +267,8 @@ class Observer:
         cells = st.cells[c]
         status = int(st.status[c])
         bits = self._component_bits(c, status, ready)
+        if not st.delivered[c]:  # off site: nothing of it is known but that
+            cells, bits = [], 0
         byte, bm, xy, dirty = self._byte, self._bits, self._xy, self._dirty_columns
         keep = ~old_bits & 0xFF
         for j in old_cells:  # every component cell lies inside the site
@@ -252,6 +278,9 @@ class Observer:
             bm[byte[j]] |= bits
             dirty.add(xy[j])
         self._painted[c] = (cells, bits)
+        if not cells:
+            self.table[c] = 0.0
+            return
         # The component table row (the "held by this crane" column is per crane).
         self.table[c] = (
             status == _INITIAL,
@@ -292,6 +321,21 @@ class Observer:
             has = (self.bits[idx][:, :, None] & self._masks) != 0
             self.planes[idx] = (has * self._values).max(axis=1)
             self._dirty_columns.clear()
+        if self._events:
+            self._update_events()
+
+    def _update_events(self) -> None:
+        """The events block: delivered flags, available cranes, the closed plan."""
+        sim, lay, C = self.sim, self.layout, self.sim.site.n_components
+        ev = self.template[lay.events]
+        ev[:C] = sim.state.delivered
+        ev[C : C + sim.n_cranes] = [sim.crane_up(k) for k in range(sim.n_cranes)]
+        if sim.closed is not self._closed_seen:  # replaced whenever the closures change
+            self._closed_seen = sim.closed
+            X, Y = self.plan
+            closed = sim.closed.reshape(sim.site.shape)[1 : X + 1, 1 : Y + 1, 1 : self.height + 1]
+            z = np.arange(1, self.height + 1, dtype=np.float32) / self.height
+            ev[C + sim.n_cranes :] = (closed * z).max(axis=2).reshape(-1)
 
     # -- per crane ---------------------------------------------------------------------------
 

@@ -20,6 +20,9 @@ episode. :func:`resimulate` refuses a record whose scenario file changed
 content (see ``multicrane.record_file``): a file changed after it was written, or one that
 cannot be read (corrupt gzip, bad JSON, truncated), is a :class:`RecordError` naming the file
 and the problem. Files written before checksums existed load with a ``RecordWarning``.
+An episode with site events (``multicrane.events``) also stores its drawn ``schedule``,
+which the re-simulation uses as is (``reset(options={"schedule": ...})``); a record without
+one (older files included) re-simulates without events.
 
 This module does not import rerun (see ``multicrane.viewer`` for the 3D viewer).
 """
@@ -33,6 +36,7 @@ from typing import Any, Protocol
 
 from multicrane import record_file
 from multicrane.crane_env import MultiCraneEnv
+from multicrane.events import EventSchedule, EventSpec
 from multicrane.rollout import run_episode
 from multicrane.scenario import Scenario
 from multicrane.scenario_catalog import scenario_names, scenarios_dir
@@ -85,6 +89,8 @@ class EpisodeRecord:
     # Task mode: the task decisions, one list per decision round (``actions`` then hold the
     # physical joint actions, which re-simulate in the motion mode). Absent in motion mode.
     decisions: list[list[int]] = field(default_factory=list)
+    # Site events: the drawn schedule (``EventSchedule.to_json``); empty: no events.
+    schedule: dict[str, Any] = field(default_factory=dict)
 
     @property
     def steps(self) -> int:
@@ -97,6 +103,8 @@ class EpisodeRecord:
         data["events"] = [[list(e) for e in step] for step in self.events]
         if not self.decisions:
             del data["decisions"]
+        if not self.schedule:
+            del data["schedule"]
         return data
 
     @classmethod
@@ -121,6 +129,7 @@ class EpisodeRecord:
             metrics=f.metrics("metrics"),
             policy=f.text("policy", ""),
             decisions=f.actions("decisions", []),
+            schedule=f.table("schedule", {}),
         )
 
     def save(self, path: str | Path) -> Path:
@@ -163,7 +172,17 @@ class EpisodeRecord:
             n_cranes=self.n_cranes,
             auto=self.auto,
             max_steps=self.max_steps,
+            events=EventSpec() if self.schedule else None,
         )
+
+    def event_schedule(self, env: MultiCraneEnv) -> EventSchedule | None:
+        """The stored schedule for ``env``'s site (None without events)."""
+        if not self.schedule:
+            return None
+        try:
+            return EventSchedule.from_json(self.schedule, env.sim.site)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RecordError(f"episode record: bad events schedule: {exc!r}") from None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -242,6 +261,8 @@ def record_episode(
             for step in (sorted(s, key=lambda e: e.crane) for s in task_mode.trace_events)
         ]
         m = dict(m, **{"return": float(sum(task_mode.trace_rewards))})
+    if env.sim.schedule is not None:
+        rec.schedule = env.sim.schedule.to_json()
     rec.metrics = {
         "return": m["return"],
         "steps": m["steps"],
@@ -268,7 +289,7 @@ def resimulate_steps(
     naming each field that differs (see :func:`end_differences`)."""
     try:
         env = record.make_env(scenario)
-        env.reset(seed=record.seed)
+        env.reset(seed=record.seed, options={"schedule": record.event_schedule(env)})
     except RecordError:
         raise
     except ValueError as exc:  # a scenario, crane count or seed that cannot be used

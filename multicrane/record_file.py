@@ -155,6 +155,12 @@ class Fields:
             out.append(row)
         return out
 
+    def table(self, key: str, default: Any = ...) -> dict[str, Any]:
+        value = self._get(key, default)
+        if not isinstance(value, dict):
+            raise self.fail(key, f"must be an object, got {type(value).__name__}")
+        return value
+
     def metrics(self, key: str) -> dict[str, Any]:
         m = self._get(key)
         if not isinstance(m, dict):

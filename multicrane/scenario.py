@@ -109,6 +109,9 @@ class Scenario:
     random_start: RandomStart | None
     # Per-crane reach (tower cranes), in crane order; empty: every crane reaches everywhere.
     crane_specs: tuple[CraneSpec, ...] = ()
+    # The [events] table: a multicrane.events.EventSpec (not imported here: events builds on
+    # the site, which builds on this schema); None: a static site.
+    events: object | None = None
 
     @property
     def n_components(self) -> int:

@@ -13,6 +13,7 @@ import tomllib
 from pathlib import Path
 
 from multicrane import geometry, panels, scenario_limits
+from multicrane.events_toml import parse_events
 from multicrane.scenario import (
     Band,
     Box,
@@ -99,6 +100,7 @@ class _Builder:
         random_start = self._random_start(top.table("random_start", required=False))
         comp_tables = top.tables("components")
         crane_specs = self._crane_specs(top)
+        events = top.table("events", required=False)
         top.finish()
         if not comp_tables:
             raise ScenarioError(
@@ -111,6 +113,7 @@ class _Builder:
             self._component(t, ids, random_start is not None, interchangeable) for t in comp_tables
         ]
         order = self._order(rules, ids)
+        event_spec = None if events is None else parse_events(events, size, ids)
         cranes = rules.get("cranes", int, len(crane_specs) or 1)
         if cranes < 1:
             raise rules.fail("cranes", cranes, "must be at least 1")
@@ -151,6 +154,7 @@ class _Builder:
             reward=reward,
             random_start=random_start,
             crane_specs=crane_specs,
+            events=event_spec,
         )
         check_scenario(scenario, comp_tables)
         scenario = panels.derive_supports(scenario, comp_tables)

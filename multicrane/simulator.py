@@ -12,6 +12,17 @@ episode's mutable state is ``sim.state`` (``multicrane.state.SiteState``); the f
 are also readable as attributes of the simulator (``sim.status`` is ``sim.state.status``).
 Readers (observation, reward, planners) read them and never write. ``take_changed`` hands
 over the components whose cells or status changed since it was last called.
+
+**Site events** (``events=EventSpec``, see ``multicrane.events`` and docs/uncertainty.md):
+``reset`` draws the episode's ``EventSchedule`` from its generator (after the start) unless one
+is given, and applies the events of time 0; each ``step`` applies those of the new time after
+the actions, so the masks and observations handed out at time ``t`` already show them.
+A late component appears in its yard pose once due and its cells are free and open; a crane
+that is down may only wait (an assembly pauses, a held component stays held where it is);
+closed cells refuse component cells. ``sim.schedule`` (None without events),
+``sim.delivered(c)``, ``sim.crane_up(k)``, ``sim.closed`` ((P,) bool) tell the present;
+``StepOutcome.site_events`` and ``sim.site_log`` (the episode's site events so far, in order)
+tell what changed. Without a schedule nothing of this runs.
 """
 
 from __future__ import annotations
@@ -20,14 +31,25 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from multicrane.events import EventSchedule, EventSpec, draw_schedule
 from multicrane.legality import Legality
 from multicrane.reach import check_crane_count
 from multicrane.scenario import Scenario
 from multicrane.site import FREE, NOBODY, WALL, Site
+from multicrane.site_events import SiteEvents
 from multicrane.start import Start, draw_start
 from multicrane.state import SiteState
 from multicrane.transitions import event_of
-from multicrane.types import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, Event, EventType, Status
+from multicrane.types import (
+    ASSEMBLE,
+    CLAIM_BASE,
+    N_MOVES,
+    WAIT,
+    Event,
+    EventType,
+    SiteEvent,
+    Status,
+)
 
 __all__ = ["FREE", "NOBODY", "WALL", "Simulator", "StepOutcome"]
 
@@ -42,9 +64,10 @@ class StepOutcome:
     events: list[Event] = field(default_factory=list)
     assembled_by: list[int] = field(default_factory=list)  # crane of each assembly this step
     pass_over_by: list[int] = field(default_factory=list)  # crane of each pass-over step
+    site_events: list[SiteEvent] = field(default_factory=list)  # the schedule's, at the new time
 
 
-class Simulator(Legality):
+class Simulator(SiteEvents, Legality):
     """One construction site with ``n_cranes`` cranes.
 
     ``auto=True`` is the paper's process: each idle crane is given the next component of the
@@ -58,8 +81,17 @@ class Simulator(Legality):
     then claims, is given and moves only what its zone allows (``multicrane.legality``).
     """
 
-    def __init__(self, scenario: Scenario, n_cranes: int | None = None, auto: bool = False):
+    def __init__(
+        self,
+        scenario: Scenario,
+        n_cranes: int | None = None,
+        auto: bool = False,
+        events: EventSpec | None = None,
+        horizon: int | None = None,
+    ):
         self.scenario = scenario
+        self.events = events
+        self.horizon = scenario.step_limit if horizon is None else int(horizon)
         self.n_cranes = scenario.cranes if n_cranes is None else int(n_cranes)
         if self.n_cranes < 1:
             raise ValueError(f"n_cranes must be at least 1, got {n_cranes!r}")
@@ -78,6 +110,11 @@ class Simulator(Legality):
             ]
         self.start: Start | None = None
         self.state: SiteState | None = None
+        self.schedule: EventSchedule | None = None
+        self._closing = False
+        self._closed = self.closed = np.zeros(self.site.size, dtype=bool)
+        self._down = [False] * self.n_cranes
+        self.site_log: list[SiteEvent] = []
 
     # -- pickling: memoryviews are rebuilt, not pickled -------------------------------------
 
@@ -100,23 +137,41 @@ class Simulator(Legality):
 
     # -- reset -----------------------------------------------------------------------------
 
-    def reset(self, rng: np.random.Generator, start: Start | None = None) -> None:
-        """Start an episode from ``start`` (default: drawn from ``rng``)."""
+    def reset(
+        self,
+        rng: np.random.Generator,
+        start: Start | None = None,
+        schedule: EventSchedule | None = None,
+    ) -> None:
+        """Start an episode from ``start`` (default: drawn from ``rng``); with ``events``,
+        from ``schedule`` (default: drawn from ``rng`` after the start)."""
         self.rng = rng
         self.start = start if start is not None else draw_start(self.scenario, rng)
-        self.state = SiteState.at_start(self.site, self.start, self.n_cranes)
+        if self.events is not None:  # one draw of rng, whether drawn here or given
+            sub = np.random.default_rng(int(rng.integers(2**63)))
+            if schedule is None:
+                built = np.array([t >= 0 for t in self.start.prebuilt_target], dtype=bool)
+                schedule = draw_schedule(
+                    self.events, self.site, built, self.n_cranes, self.horizon, sub
+                )
+        self.schedule = schedule
+        arrival = None if schedule is None else schedule.arrival
+        self.state = SiteState.at_start(self.site, self.start, self.n_cranes, arrival)
         n = self.site.n_components
         self._bind()
         self._watch_pickups()
         self._claimable: set[int] = set()
         self._claimable_list: list[int] = []
         self._recheck: set[int] = set()
-        self._refresh_targets()
         self._changed: set[int] = set(range(n))  # components whose cells or status changed
+        self.site_log = []
+        self._time_events(0, [])
+        self._refresh_targets()
         if self.auto:
             events: list[Event] = []
             for crane in range(self.n_cranes):
-                self._assign(crane, events)
+                if not self._down[crane]:
+                    self._assign(crane, events)
 
     # -- snapshots for planners --------------------------------------------------------------
 
@@ -129,6 +184,8 @@ class Simulator(Legality):
         if self.state.pickup is not self._watched_pickup:
             self._watch_pickups()
         self._changed = set(range(self.site.n_components))
+        if self.schedule is not None:
+            self._time_events(self.state.step_count, None)
         self._refresh_targets()
 
     def take_changed(self) -> set[int]:
@@ -148,8 +205,10 @@ class Simulator(Legality):
             self._act(crane, int(actions[crane]), out)
         if self.auto:
             for crane in order if order is not None else range(self.n_cranes):
-                if st.held[crane] == NOBODY and not st.pass_over[crane]:
+                if st.held[crane] == NOBODY and not st.pass_over[crane] and not self._down[crane]:
                     self._assign(crane, out.events)
+        if self.schedule is not None:
+            self._apply_events(st.step_count, out.site_events)
         return out
 
     def _set_status(self, comp: int, new: int) -> EventType:
@@ -161,6 +220,10 @@ class Simulator(Legality):
     def _act(self, crane: int, action: int, out: StepOutcome) -> None:
         st = self.state
         t = st.step_count
+        if self._down[crane]:  # broken down: only wait; an assembly pauses, a load stays
+            if action != WAIT:
+                out.events.append(Event(t, crane, EventType.ILLEGAL, detail="crane down"))
+            return
         if st.pass_over[crane]:  # the paper's pass-over: the action is ignored
             st.pass_over[crane] = False
             out.events.append(Event(t, crane, EventType.PASS_OVER))
@@ -203,15 +266,17 @@ class Simulator(Legality):
             # Another crane took it earlier in this step (or holds it already).
             out.events.append(Event(t, crane, EventType.CLAIM_CONFLICT, comp))
             return
-        if self._status[comp] != _INITIAL or (
-            self.site.waits[comp] and not self._has_ready[comp]
+        if (
+            self._status[comp] != _INITIAL
+            or (self.site.waits[comp] and not self._has_ready[comp])
+            or not st.delivered[comp]
         ):
             out.events.append(Event(t, crane, EventType.ILLEGAL, comp, detail=f"claim {comp}"))
             return
         if self._zones is not None and not self.in_reach(crane, comp):
             out.events.append(Event(t, crane, EventType.ILLEGAL, comp, detail="reach"))
             return
-        if not self.fits(comp, st.pickup[comp]):
+        if not self._lift_ok(comp):
             out.events.append(Event(t, crane, EventType.LIFT_BLOCKED, comp))
             return
         out.events.append(Event(t, crane, EventType.CLAIMED, comp))
@@ -221,7 +286,7 @@ class Simulator(Legality):
     def _lift(self, crane: int, comp: int, out: StepOutcome) -> bool:
         """Initial -> in transit: the component jumps to its pick-up pose if that is free."""
         st = self.state
-        if not self.fits(comp, st.pickup[comp]):
+        if not self._lift_ok(comp):
             out.events.append(Event(st.step_count, crane, EventType.LIFT_BLOCKED, comp))
             return False
         self._place(comp, st.pickup[comp])
@@ -322,6 +387,8 @@ class Simulator(Legality):
                 continue
             if self._status[comp] != _INITIAL or st.holder[comp] != NOBODY:
                 continue
+            if not st.delivered[comp]:
+                continue  # late: not on site yet
             if self.site.waits[comp] and not self._has_ready[comp]:
                 continue
             if self._zones is not None and not self.in_reach(crane, comp):

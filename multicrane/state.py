@@ -22,7 +22,7 @@ from multicrane.types import Status
 if TYPE_CHECKING:
     from multicrane.start import Start
 
-_ARRAYS = ("occ", "status", "moves", "holder", "filled", "filled_by")
+_ARRAYS = ("occ", "status", "moves", "holder", "filled", "filled_by", "delivered")
 _LISTS = ("cells", "held", "assembling", "pass_over")
 _SCALARS = ("pointer", "n_assembled", "step_count")
 # Set by reset and never changed during the episode: copies share them.
@@ -42,6 +42,8 @@ class SiteState:
     filled: np.ndarray  # (C,) int16: target the component fills (arrived/assembled), or NOBODY
     filled_by: np.ndarray  # (C,) int16, per target: component filling it, or NOBODY
     cells: list[list[int]]  # C lists of cell indices, node 1 first (a move replaces a list)
+    delivered: np.ndarray  # (C,) bool: on site (False: late, off site; ``cells`` is where it
+    #                        will appear, and ``occ`` does not hold it)
     prebuilt: np.ndarray  # (C,) bool: assembled from the start (fixed for the episode)
     pickup: list[list[int]]  # C lists: cells of the pick-up pose ([] if pre-built; fixed)
     # -- per crane -----------------------------------------------------------------------
@@ -57,9 +59,12 @@ class SiteState:
     step_count: int  # steps taken this episode
 
     @classmethod
-    def at_start(cls, site: Site, start: Start, n_cranes: int) -> SiteState:
+    def at_start(
+        cls, site: Site, start: Start, n_cranes: int, arrival: np.ndarray | None = None
+    ) -> SiteState:
         """The state at the start of an episode: components where ``start`` puts them
-        (pre-built ones assembled on their targets, the others initial in the yard)."""
+        (pre-built ones assembled on their targets, the others initial in the yard); with
+        ``arrival`` (``multicrane.events``), those due later are off site (not delivered)."""
         scenario = site.scenario
         n = site.n_components
         occ = site.static.copy()
@@ -69,6 +74,7 @@ class SiteState:
         prebuilt = np.zeros(n, dtype=bool)
         cells: list[list[int]] = [[] for _ in range(n)]
         pickup: list[list[int]] = [[] for _ in range(n)]
+        delivered = np.ones(n, dtype=bool) if arrival is None else np.asarray(arrival) <= 0
         for i, c in enumerate(scenario.components):
             t = start.prebuilt_target[i]
             if t >= 0:  # pre-built: assembled from the start, not a transition
@@ -82,6 +88,8 @@ class SiteState:
                 assert pose is not None
                 cells[i] = site.lin_pose(pose)
                 pickup[i] = site.lin_pose(geometry.pickup_pose(c, scenario.beam_lift_z, pose))
+            if not delivered[i]:
+                continue
             for j in cells[i]:
                 assert occ[j] == FREE, "the loader and the start draw guarantee free cells"
                 occ[j] = i + 1
@@ -94,6 +102,7 @@ class SiteState:
             filled=filled,
             filled_by=filled_by,
             cells=cells,
+            delivered=delivered,
             prebuilt=prebuilt,
             pickup=pickup,
             held=[NOBODY] * n_cranes,

@@ -23,6 +23,11 @@ component (its index / max(C - 1, 1)); target node 1 and node 2; distance (stati
 length from the pick-up pose to the target for this crane, 1 when it cannot); allowed
 (the action mask's entry ``1 + p`` for this crane).
 
+With site events (``events=``, ``multicrane.events``) only: ``components`` gains a last column
+``delivered`` (a component not yet delivered has only that, 0, and its target columns), ``cranes``
+a last column ``available`` (not broken down), and a ``closed`` block (X, Y) holds the height
+of the highest closed cell above each (x, y), divided by H.
+
 ``planes`` (only with ``task_site_planes=True``): the (X, Y, 9) site planes of the motion
 observation (``multicrane.observation``).
 """
@@ -59,13 +64,17 @@ class TaskLayout:
     n_cranes: int
     n_tasks: int
     plan: tuple[int, int] | None = None  # (X, Y) when the site planes are included
+    events: tuple[int, int] | None = None  # (X, Y) with site events
 
     def blocks(self) -> list[tuple[str, tuple[int, ...]]]:
+        e = int(self.events is not None)
         out = [
-            ("components", (self.n_components, len(COMPONENT_FEATURES) + self.n_cranes)),
-            ("cranes", (self.n_cranes, len(CRANE_FEATURES))),
+            ("components", (self.n_components, len(COMPONENT_FEATURES) + self.n_cranes + e)),
+            ("cranes", (self.n_cranes, len(CRANE_FEATURES) + e)),
             ("tasks", (self.n_tasks, len(TASK_FEATURES))),
         ]
+        if self.events is not None:
+            out.append(("closed", self.events))
         if self.plan is not None:
             out.append(("planes", (self.plan[0], self.plan[1], N_SHARED + N_OWN)))
         return out
@@ -98,7 +107,11 @@ class TaskObserver:
         self.T_norm = self.D + sim.scenario.assembly_steps + 1
         self.planes = Observer(sim) if site_planes else None
         self.layout = TaskLayout(
-            sim.site.n_components, sim.n_cranes, len(book.tasks), (X, Y) if site_planes else None
+            sim.site.n_components,
+            sim.n_cranes,
+            len(book.tasks),
+            (X, Y) if site_planes else None,
+            (X, Y) if sim.events is not None else None,
         )
         site = sim.site
         self._targets = np.array(
@@ -121,12 +134,21 @@ class TaskObserver:
         if self.planes is not None:
             self.planes.reset(step_limit)
 
+    def _closed_plan(self) -> np.ndarray:
+        """(X * Y,) the top closed height per (x, y) column, divided by H."""
+        sim = self.sim
+        X, Y, H = sim.scenario.size
+        closed = sim.closed.reshape(sim.site.shape)[1 : X + 1, 1 : Y + 1, 1 : H + 1]
+        z = np.arange(1, H + 1, dtype=np.float32) / H
+        return (closed * z).max(axis=2).reshape(-1)
+
     def observe_all(self) -> list[np.ndarray]:
         """One flat observation per crane, in crane order."""
         sim, book = self.sim, self.book
         st = sim.state
         C, N = sim.site.n_components, sim.n_cranes
-        comp = np.zeros((C, len(COMPONENT_FEATURES) + N), dtype=np.float32)
+        events = self.layout.events is not None
+        comp = np.zeros((C, len(COMPONENT_FEATURES) + N + events), dtype=np.float32)
         status = np.asarray(st.status)
         comp[:, 0] = np.asarray(sim.site.kind) == _BEAM
         comp[np.arange(C), 1 + status] = 1.0
@@ -152,9 +174,14 @@ class TaskObserver:
         can = np.zeros((N, C), dtype=bool)
         for k in range(N):
             np.logical_or.at(can[k], book.tasks.comp, book.static_ok[k])
-        comp[:, 21:] = can.T
+        comp[:, 21 : 21 + N] = can.T
+        if events:
+            late = ~np.asarray(st.delivered)
+            comp[late, :11] = 0.0  # only "not delivered" (and its own target) is known
+            comp[late, 17:] = 0.0
+            comp[:, -1] = st.delivered
 
-        cranes = np.zeros((N, len(CRANE_FEATURES)), dtype=np.float32)
+        cranes = np.zeros((N, len(CRANE_FEATURES) + events), dtype=np.float32)
         for k in range(N):
             cranes[k, 1] = book.busy(k)
             cranes[k, 2] = min(book.time_left(k) / self.T_norm, 1.0)
@@ -163,6 +190,8 @@ class TaskObserver:
                 cranes[k, 3] = 1.0
                 cranes[k, 4:7] = self._nodes(st.cells[held])[:3]
         cranes[:, 7:10] = self._reach
+        if events:
+            cranes[:, -1] = [sim.crane_up(k) for k in range(N)]
 
         P = len(book.tasks)
         tasks = np.zeros((P, len(TASK_FEATURES)), dtype=np.float32)
@@ -171,6 +200,7 @@ class TaskObserver:
         dist = np.where(book.static_ok, np.minimum(book.static_len / self.D, 1.0), 1.0)
         masks = book.masks()
         head = [comp.ravel(), None, None]
+        closed = self._closed_plan() if events else None
         if self.planes is not None:
             self.planes.update(sim.take_changed(), sim.claimable_components())
         out = []
@@ -182,6 +212,8 @@ class TaskObserver:
             tk[:, 8] = masks[k, 1:]
             head[1], head[2] = cr.ravel(), tk.ravel()
             parts = list(head)
+            if closed is not None:
+                parts.append(closed)
             if self.planes is not None:
                 full = self.planes.observe(k)
                 X, Y = self.layout.plan

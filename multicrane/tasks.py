@@ -12,6 +12,9 @@ pick-up pose free; a beam or panel needs a ready target) and is not another cran
 the crane can carry ``c`` to ``t``: its reach holds the pick-up pose and the target and a
 path exists through the static site inside its reach (``static_ok``, breadth-first
 searches done once per start pose and cached). The mask does not run the space-time search.
+With site events (``multicrane.events``) a crane that is down is allowed no task, a component
+not yet delivered is not claimable and a target with a closed cell is not ready, so neither
+appears in an allowed task; a busy crane that breaks down keeps its task (it waits).
 
 **Hold, retry, drop.** A chosen task is handed to the carrier (``multicrane.carrier``). If
 its space-time search fails now, the crane *holds* the task: it is busy, nothing is lifted,
@@ -151,7 +154,10 @@ class TaskBook:
         """(N, P) bool: the tasks each crane could take now were it idle."""
         comp_ok, target_ok = self._open()
         pair_ok = comp_ok[self.tasks.comp] & target_ok[self.tasks.target]
-        return self.static_ok & pair_ok[None, :]
+        ok = self.static_ok & pair_ok[None, :]
+        if self.sim.schedule is not None:
+            ok[[not self.sim.crane_up(k) for k in range(self.sim.n_cranes)]] = False
+        return ok
 
     def masks(self) -> np.ndarray:
         """(N, 1 + P) int8: wait always; tasks only for idle cranes (see the module doc)."""
@@ -259,7 +265,11 @@ class TaskBook:
             if self.carrier.try_start(k, int(c), int(t)):
                 self.started[k] = True
                 events.append(("TASK_STARTED", k, p))
-        return self.carrier.actions(T)
+        if self.sim.schedule is None:
+            return self.carrier.actions(T)
+        # Events can refuse a planned action (a crane down, a closed cell): it becomes wait
+        # and the carrier replans (see multicrane.carrier).
+        return self.carrier.actions(T, self.sim.action_masks())
 
     def after_step(self, events: list[TaskEvent]) -> bool:
         """Update the tasks after a simulated step; True when some busy crane became idle."""

@@ -90,3 +90,23 @@ class Event(NamedTuple):
     component: int = -1
     target: int = -1
     detail: str = ""
+
+
+class SiteEventType(IntEnum):
+    """What the site's event schedule (``multicrane.events``) did as time reached a step."""
+
+    DELIVERED = 0  # a late component appeared in the yard (``component``)
+    CRANE_DOWN = 1  # a crane broke down (``crane``)
+    CRANE_UP = 2  # a crane is available again (``crane``)
+    ZONE_CLOSED = 3  # a closure came into force (``closure``: its index in the schedule)
+    ZONE_OPENED = 4  # a closure ended (``closure``)
+
+
+class SiteEvent(NamedTuple):
+    """One site event at time ``step``; fields that do not apply are -1."""
+
+    step: int
+    type: SiteEventType
+    crane: int = -1
+    component: int = -1
+    closure: int = -1
