@@ -24,6 +24,10 @@ round:
   like any other; the search's cached fit mask is rebuilt, since the component now fills cells,
   and if a plan's path crosses the cells it appeared in, every plan in transit is replanned.
 
+A component that a breakdown stopped on the pose of a target that was not ready then does not
+arrive when the target becomes ready (arrival happens on a move): it is planned one step out
+and back in.
+
 Frozen components, and while some zone is closed components that found no path, do not stop
 new tasks (on a static site one stranded component stops every new start until it has a
 plan, so that no new path walls it in: disruptions are finite, so it is planned again once
@@ -34,7 +38,7 @@ from __future__ import annotations
 
 from multicrane.carrier import Carrier
 from multicrane.event_view import EventView, event_view, frozen_components
-from multicrane.reservations import INF, ReservationTable, shape_of
+from multicrane.reservations import INF, Plan, ReservationTable, goal_position, shape_of
 from multicrane.types import WAIT, Status
 
 CLOSED = -2  # the owner of a closed cell's reservations (components are 0..C-1)
@@ -114,6 +118,47 @@ class EventCarrier(Carrier):
     def _plan_parked(self, comps: list[int], T: int, res: ReservationTable) -> list[int]:
         frozen = self._frozen
         return [c for c in comps if c in frozen or not self._plan_transit(c, T, res)]
+
+    def _plan_transit(self, comp: int, T: int, res: ReservationTable) -> bool:
+        if self._view is None:
+            return super()._plan_transit(comp, T, res)
+        sim = self.sim
+        rel = shape_of(sim, comp)
+        start = sim.state.cells[comp][0]
+        crane = int(sim.state.holder[comp])
+        taken = self.taken_targets()
+        for t in sim.ready_targets(comp):
+            if t in taken or goal_position(rel, sim.site.target_cells[t]) != start:
+                continue
+            # A breakdown stopped it on this target's pose before the target was ready: it
+            # arrives only by moving in, so it steps out and back.
+            path = self._out_and_back(comp, rel, start, T, res, crane, t)
+            if path is not None:
+                res.release(comp)
+                plan = Plan(comp, crane, t, T, path, claim=False)
+                self._new_plan(plan)
+                res.reserve_plan(plan, rel, T)
+                return True
+        return super()._plan_transit(comp, T, res)
+
+    def _out_and_back(
+        self, comp: int, rel: tuple[int, ...], start: int, T: int, res: ReservationTable,
+        crane: int, target: int,
+    ) -> list[int] | None:  # fmt: skip
+        """``[start, q, start]``: one move out to a free neighbour pose and back, reserved
+        by the table's rule (``multicrane.reservations``), or None."""
+        sim = self.sim
+        zone = crane if sim.site.reach is not None else -1
+        ok = self._shapes.base_ok(sim, rel, zone)
+        stops = self._stops(comp, rel, target)
+        here = [start + r for r in rel]
+        if res.conflict(here, T + 1, INF, comp):
+            return None
+        for d in self._deltas:
+            q = start + d
+            if ok[q] and q not in stops and not res.conflict([q + r for r in rel], T, T + 2, comp):
+                return [start, q, start]
+        return None
 
     def reaches_pair(self, crane: int, comp: int, target: int) -> bool:
         return self.crane_up(crane) and super().reaches_pair(crane, comp, target)

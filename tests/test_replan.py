@@ -10,7 +10,9 @@ the static plan waits and takes longer; both finish every built-in scenario unde
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 import multicrane
@@ -72,3 +74,199 @@ def test_cell_summary_and_table():
     table = markdown_table([cell, Cell("e2s2", 2, "high", "replanning", [0], [31])], [])
     assert "| e2s2 | 2 | high | 32.0 [" in table
     assert "(67%)" in table and "31.0 (100%)" in table
+
+
+# -- a hand-built disruption: a breakdown and a closed zone --------------------------------------
+
+
+def drive(sim, policy, limit: int) -> list[dict]:
+    """Play ``policy`` on ``sim`` to the end (or ``limit`` steps) with the simulator's masks;
+    one row per step: held components, cells, statuses and the cranes that assembled."""
+    rng = np.random.default_rng(0)
+    agents = [f"crane_{k}" for k in range(sim.n_cranes)]
+    rows = []
+    while sim.state.n_assembled < sim.site.n_components and sim.state.step_count < limit:
+        masks = sim.action_masks()
+        joint = policy({a: {"action_mask": masks[k]} for k, a in enumerate(agents)})
+        actions = [int(joint[a]) for a in agents]
+        assert all(masks[k][a] for k, a in enumerate(actions)), "a planner sent a masked action"
+        out = sim.step(actions, rng.permutation(sim.n_cranes).tolist())
+        st = sim.state
+        rows.append({
+            "t": st.step_count, "held": list(st.held), "status": st.status.copy(),
+            "cells": [[sim.site.cell(j) for j in c] for c in st.cells],
+            "assembled_by": list(out.assembled_by),
+        })  # fmt: skip
+    return rows
+
+
+def disrupted(name: str):
+    """e3s2 with 2 cranes: crane 0 down during [6, 50), the strip x 5..10, y 7 (every height,
+    between the yard and the building) closed during [2, 40)."""
+    from multicrane.events import EventSchedule, EventSpec, Outage, closure
+    from multicrane.simulator import Simulator
+    from policies.prioritized import PrioritizedPlanner
+    from policies.static_plan import StaticPlan
+
+    scenario = multicrane.load_scenario("e3s2")
+    sim = Simulator(scenario, 2, events=EventSpec())
+    n = sim.site.n_components
+    zone = closure(sim.site, ((5, 7, 1), (10, 7, scenario.size[2])), 2, 40)
+    schedule = EventSchedule(np.zeros(n, dtype=np.int64), [Outage(0, 6, 50)], [zone])
+    sim.reset(np.random.default_rng(0), schedule=schedule)
+    env = SimpleNamespace(sim=sim, scenario=scenario, possible_agents=["crane_0", "crane_1"],
+                          step_limit=scenario.step_limit, decisions="motion")  # fmt: skip
+    policy = PrioritizedPlanner(env) if name == "replanning" else StaticPlan(env)
+    rows = drive(sim, policy, scenario.step_limit)
+    return sim, policy, rows, set(zone.cells)
+
+
+def test_replanning_goes_on_around_a_breakdown_and_a_closed_zone():
+    sim, planner, rows, closed = disrupted("replanning")
+    _, static, static_rows, _ = disrupted("static-plan")
+    n = sim.site.n_components
+    # Both finish; the replanning planner sooner, the static plan after waiting.
+    assert rows[-1]["status"].tolist() == [3] * n
+    assert static_rows[-1]["status"].tolist() == [3] * n
+    assert len(rows) < len(static_rows)
+    assert static.stats["waits"] >= 44 and static.stats["fallback"] == 0
+    assert planner.stats["event_replans"] >= 2 and planner.stats["fallbacks"] == 0
+    during = [r for r in rows if 6 <= r["t"] < 50]
+    # The broken crane keeps its component where it is for the whole outage...
+    held = during[0]["held"][0]
+    assert held >= 0
+    assert all(r["held"][0] == held and r["cells"][held] == during[0]["cells"][held]
+               for r in during)  # fmt: skip
+    # ...while the other crane carries on: its work is reassigned, nothing waits for crane 0.
+    assert sum(r["assembled_by"].count(1) for r in during) >= 2
+    assert not any(r["assembled_by"] for r in static_rows if r["t"] < 50)
+    # Closed cells are never entered, and crane 1 routes around the strip while it is closed.
+    for r in rows + static_rows:
+        if 2 <= r["t"] < 40:
+            assert not any(sim.site.lin(*xyz) in closed for c in r["cells"] for xyz in c)
+    around = [
+        r["t"] for r in rows if 2 <= r["t"] < 40 and r["held"][1] >= 0
+        and any(y == 7 and not 5 <= x <= 10 for x, y, _ in r["cells"][r["held"][1]])
+    ]  # fmt: skip
+    assert around, "crane 1 never crossed the closed row beside the strip"
+
+
+# -- every built-in scenario under low and high events --------------------------------------------
+
+
+def _settings() -> list[tuple[str, int]]:
+    out = []
+    for name in multicrane.scenario_names():
+        s = multicrane.load_scenario(name)
+        out.append((name, s.cranes))
+        if not s.crane_specs and s.cranes > 1:
+            out.append((name, 1))
+    return out
+
+
+def finishes(name: str, scenario: str, n: int, level: str, seed: int) -> dict:
+    """An episode with a long step limit (events are drawn up to the scenario's own limit, so
+    they end): the planner must finish, never send a masked action and never fall back."""
+    limit = 5 * multicrane.load_scenario(scenario).step_limit
+    env = multicrane.parallel_env(scenario, n_cranes=n, events=level, max_steps=limit)
+    policy = policies.make(name, env, seed=seed)
+    result = run_episode(env, policy, seed=seed)
+    assert result["success"], (name, scenario, n, level, seed)
+    assert result["failed_actions"] == 0
+    assert policy.stats.get("fallback", 0) == 0 and policy.stats.get("fallbacks", 0) == 0
+    return result
+
+
+@pytest.mark.parametrize("level", ["low", "high"])
+@pytest.mark.parametrize("name", ["replanning", "static-plan"])
+def test_planners_finish_every_scenario_with_events(name, level):
+    for scenario, n in _settings():
+        finishes(name, scenario, n, level, seed=0)
+
+
+@pytest.mark.fuzz
+@pytest.mark.parametrize("level", ["low", "high"])
+@pytest.mark.parametrize("name", ["replanning", "static-plan"])
+def test_planners_finish_every_scenario_with_events_many_seeds(request, name, level):
+    if "fuzz" not in (request.config.getoption("-m") or ""):
+        pytest.skip("the large run: python -m pytest -m fuzz tests/test_replan.py")
+    for scenario, n in _settings():
+        for seed in range(1, 8):
+            finishes(name, scenario, n, level, seed)
+
+
+# -- replays show the events ----------------------------------------------------------------------
+
+
+def test_replay_draws_deliveries_breakdowns_and_closures(tmp_path):
+    rr = pytest.importorskip("rerun")
+    from rerun.chunk import RrdReader
+
+    from multicrane import viewer
+    from multicrane.viewer_episode import HOOK_DOWN, HOOK_UP
+
+    rr.set_strict_mode(True)
+    env = multicrane.parallel_env("e3s2", n_cranes=2, events="high")
+    seed = next(s for s in range(50) if _eventful(env, s))
+    path = tmp_path / "events.rrd"
+    policy = policies.make("replanning", env, seed=seed)
+    viewer.record_and_save(env, policy, seed, path, "replanning")
+    schedule = env.sim.schedule
+    columns: dict[str, dict[int, list]] = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.is_static or chunk.entity_path not in ("/components", "/cranes/hooks",
+                                                          "/site/closed"):  # fmt: skip
+            continue
+        batch = chunk.to_record_batch()
+        name = {"/components": "Boxes3D:half_sizes", "/cranes/hooks": "Points3D:colors",
+                "/site/closed": "Boxes3D:centers"}[chunk.entity_path]  # fmt: skip
+        rows = columns.setdefault(chunk.entity_path, {})
+        for t, row in zip(batch.column("step").to_pylist(), batch.column(name).to_pylist(),
+                          strict=True):  # fmt: skip
+            rows[t] = row
+    # A late component is not drawn before its delivery (a zero box), and drawn after.
+    late = int(np.argmax(schedule.arrival))
+    halves = columns["/components"]
+    assert halves[0][late] == [0.0, 0.0, 0.0]
+    assert max(halves)  # the episode ran
+    assert any(h[late] != [0.0, 0.0, 0.0] for h in halves.values())
+    # A crane that is down has a red hook exactly while it is down.
+    outage = schedule.outages[0]
+    hooks = columns["/cranes/hooks"]
+    assert hooks[outage.start][outage.crane] == HOOK_DOWN
+    assert hooks[0][outage.crane] == HOOK_UP or outage.start == 0
+    # Closed zones are drawn while closed, and not otherwise.
+    zone = schedule.closures[0]
+    closed = columns["/site/closed"]
+    assert len(closed[zone.start]) >= 1
+    open_steps = [t for t in closed if not schedule.closures_at(t)]
+    assert all(closed[t] in ([], None) for t in open_steps)
+
+
+def _eventful(env, seed: int) -> bool:
+    env.reset(seed=seed)
+    s = env.sim.schedule
+    return bool(s.outages) and bool(s.closures) and int(s.arrival.max()) > 0 and (
+        s.outages[0].start < 60 and s.closures[0].start < 60
+    )
+
+
+# -- the command -------------------------------------------------------------------------------
+
+
+def test_uncertainty_command_writes_results_table_and_plot(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from multicrane.cli import main
+
+    argv = ["uncertainty", "--scenarios", "e2s2:2", "--levels", "none", "high", "--seeds", "2",
+            "--policies", "static-plan", "replanning", "--bound-time", "2", "--out",
+            str(tmp_path)]  # fmt: skip
+    assert main(argv) == 0
+    data = json.loads((tmp_path / "results.json").read_text())
+    cells = {(c["level"], c["policy"]): c for c in data["cells"]}
+    assert set(cells) == {(lv, p) for lv in ("none", "high") for p in ("static-plan", "replanning")}
+    assert cells[("none", "static-plan")]["makespans"] == cells[("none", "replanning")]["makespans"]
+    assert data["bounds"][0]["values"][0] <= cells[("none", "replanning")]["makespans"][0]
+    assert (tmp_path / "uncertainty.png").stat().st_size > 0
+    assert "| e2s2 | 2 | high |" in (tmp_path / "table.md").read_text()
+    assert main(["uncertainty", "--seeds", "0"]) == 1
