@@ -413,3 +413,11 @@ def test_record_with_events_resimulates_exactly(decisions, tmp_path):
     plain = record_episode(MultiCraneEnv("e2s2", 2, max_steps=30), RandomPolicy(seed=1), seed=4)
     assert "schedule" not in plain.to_dict()
     resimulate(EpisodeRecord.from_dict(plain.to_dict()))
+
+
+def test_events_table_round_trips_through_scenario_toml():
+    from multicrane.scenario_toml import to_toml
+
+    s = parse_scenario(micro_site(extra=EVENTS_OK), "micro.toml")
+    back = parse_scenario(to_toml(s), "micro.toml")
+    assert back.events == s.events and back.components == s.components
