@@ -1,8 +1,9 @@
-"""The scenario's ``[events]`` table: read strictly into an ``EventSpec``.
+"""The scenario's ``[events]`` table: read strictly into an ``EventSpec``, and written back.
 
 Every key is optional (an empty table is a site with the events machinery on and nothing
 happening); see ``scenarios/README.md`` for the schema and ``multicrane.events`` for the
 meaning. Each problem is a ``ScenarioError`` naming the file, the key and the value.
+``events_lines`` writes the table (``multicrane.scenario_toml``) so that it reads back equal.
 """
 
 from __future__ import annotations
@@ -83,4 +84,30 @@ def _closure(c: TomlTable, size: tuple[int, int, int]) -> FixedClosure:
     return FixedClosure((lo, hi), start, end)
 
 
-__all__ = ["parse_events", "ScenarioError"]
+def events_lines(spec: EventSpec, ids: tuple[str, ...]) -> list[str]:
+    """The ``[events]`` table of ``spec`` as TOML lines (every key written)."""
+
+    def pair(v: tuple[int, int]) -> str:
+        return f"[{int(v[0])}, {int(v[1])}]"
+
+    out = [
+        "[events]",
+        f"late_fraction = {float(spec.late_fraction)!r}",
+        f"delay = {pair(spec.delay)}",
+        f"breakdown_rate = {float(spec.breakdown_rate)!r}",
+        f"breakdown_duration = {pair(spec.breakdown_duration)}",
+        f"closure_rate = {float(spec.closure_rate)!r}",
+        f"closure_size = {pair(spec.closure_size)}",
+        f"closure_duration = {pair(spec.closure_duration)}",
+    ]
+    if spec.arrivals:
+        named = ", ".join(f'"{i}" = {int(a)}' for i, a in zip(ids, spec.arrivals, strict=True))
+        out.append(f"arrivals = {{ {named} }}")
+    for c in spec.closures:
+        lo, hi = (", ".join(str(int(v)) for v in cell) for cell in c.box)
+        out += ["", "[[events.closures]]", f"min = [{lo}]", f"max = [{hi}]",
+                f"start = {int(c.start)}", f"end = {int(c.end)}"]  # fmt: skip
+    return out + [""]
+
+
+__all__ = ["events_lines", "parse_events", "ScenarioError"]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 
+from multicrane.events_toml import events_lines
 from multicrane.scenario import Pose, Scenario
 from multicrane.types import PANELS
 
@@ -97,4 +98,6 @@ def to_toml(s: Scenario) -> str:
         if c.prebuilt_on:
             out.append(f"prebuilt_on = {_ids(s, c.prebuilt_on)}")
         out.append("")
+    if s.events is not None:
+        out += events_lines(s.events, s.ids)
     return "\n".join(out)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import random_masked_actions
+from conftest import SCENARIOS, random_masked_actions, reach_skip
 from test_rules import C1, C2, micro_site
 
 from multicrane.crane_env import MultiCraneEnv
@@ -22,6 +22,7 @@ from multicrane.events import (
     draw_schedule,
     preset,
 )
+from multicrane.observation import Observer
 from multicrane.scenario_loader import load_scenario, parse_scenario
 from multicrane.simulator import Simulator
 from multicrane.types import CLAIM_BASE, WAIT, EventType, Move, SiteEventType, Status
@@ -215,7 +216,7 @@ def play(env: MultiCraneEnv, seed: int, steps: int, check=None) -> list:
     rng = np.random.default_rng(seed + 1)
     sim = env.sim
     if check is not None:  # checked after every simulated step (several per task-level step)
-        step = sim.step
+        step = Simulator.step.__get__(sim)  # the class's: a reused env is wrapped once
 
         def checked(actions, order=None):
             before = sim.snapshot(), sim.closed, list(sim._down)
@@ -276,11 +277,45 @@ def check_invariants(sim: Simulator, snap, closed_before, down_before) -> None:
     assert filled.sum() == seen.sum()  # no overlap: each cell holds one component
 
 
-@pytest.mark.parametrize("decisions", ["motion", "task"])
+def fresh_observations(env: MultiCraneEnv) -> np.ndarray:
+    """The motion observation built from scratch (the env's is kept incrementally)."""
+    fresh = Observer(env.sim)
+    fresh.reset(env.step_limit)
+    fresh.update(set(), env.sim.claimable_components(), full=True)
+    return fresh.observe_all().reshape(-1)
+
+
+@pytest.mark.parametrize("decisions", ["motion", "task", "auto"])
 def test_invariants_under_random_play_with_every_event_on(decisions):
     for seed in range(2):
-        env = MultiCraneEnv("e3s2", 2, decisions=decisions, events=ALL_ON)
+        env = events_env("e3s2", decisions, ALL_ON)
         play(env, seed, 150, check_invariants)
+        if decisions == "motion":
+            assert np.array_equal(env.state(), fresh_observations(env))
+
+
+def events_env(name: str, decisions: str, events, n_cranes: int | None = 2) -> MultiCraneEnv:
+    if decisions == "auto":
+        return MultiCraneEnv(name, 1, auto=True, events=events)
+    return MultiCraneEnv(name, n_cranes, decisions=decisions, events=events)
+
+
+@pytest.mark.fuzz
+@pytest.mark.parametrize("events", ["high", ALL_ON], ids=["high", "all-on"])
+@pytest.mark.parametrize("decisions", ["motion", "task", "auto"])
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_invariants_long_random_play_with_events(request, name, decisions, events):
+    """The large runs, only with ``-m fuzz`` (about 100 s): long random play on every
+    shipped scenario, both decision levels and the automatic mode."""
+    if "fuzz" not in (request.config.getoption("-m") or ""):
+        pytest.skip("the large events run: python -m pytest -m fuzz tests/test_events.py")
+    if (why := reach_skip(name, 1 if decisions == "auto" else None)) is not None:
+        pytest.skip(why)
+    env = events_env(name, decisions, events, n_cranes=None)
+    for seed in range(3):
+        play(env, seed, 600, check_invariants)
+        if decisions == "motion":
+            assert np.array_equal(env.state(), fresh_observations(env))
 
 
 def test_parallel_api_with_events():
@@ -378,3 +413,11 @@ def test_record_with_events_resimulates_exactly(decisions, tmp_path):
     plain = record_episode(MultiCraneEnv("e2s2", 2, max_steps=30), RandomPolicy(seed=1), seed=4)
     assert "schedule" not in plain.to_dict()
     resimulate(EpisodeRecord.from_dict(plain.to_dict()))
+
+
+def test_events_table_round_trips_through_scenario_toml():
+    from multicrane.scenario_toml import to_toml
+
+    s = parse_scenario(micro_site(extra=EVENTS_OK), "micro.toml")
+    back = parse_scenario(to_toml(s), "micro.toml")
+    assert back.events == s.events and back.components == s.components
