@@ -75,7 +75,8 @@ class EpisodeCollector:
         self.cells.append(list(sim.state.cells))
         self.held.append(list(sim.state.held))
         self.rewards.append(reward)
-        self.events.append(events)
+        site = getattr(self.env, "last_site_events", ())  # the schedule's, this step
+        self.events.append(list(events) + [(e.type.name, e.crane, e.component) for e in site])
         schedule = getattr(sim, "schedule", None)
         st_cells = sim.state.cells
         if schedule is not None:

@@ -198,6 +198,14 @@ def test_planners_finish_every_scenario_with_events_many_seeds(request, name, le
 # -- replays show the events ----------------------------------------------------------------------
 
 
+COLUMNS = {
+    "/components": "Boxes3D:half_sizes",
+    "/cranes/hooks": "Points3D:colors",
+    "/site/closed": "Boxes3D:centers",
+    "/events": "TextLog:text",
+}
+
+
 def test_replay_draws_deliveries_breakdowns_and_closures(tmp_path):
     rr = pytest.importorskip("rerun")
     from rerun.chunk import RrdReader
@@ -214,12 +222,10 @@ def test_replay_draws_deliveries_breakdowns_and_closures(tmp_path):
     schedule = env.sim.schedule
     columns: dict[str, dict[int, list]] = {}
     for chunk in RrdReader(path).stream().to_chunks():
-        if chunk.is_static or chunk.entity_path not in ("/components", "/cranes/hooks",
-                                                          "/site/closed"):  # fmt: skip
+        if chunk.is_static or chunk.entity_path not in COLUMNS:
             continue
         batch = chunk.to_record_batch()
-        name = {"/components": "Boxes3D:half_sizes", "/cranes/hooks": "Points3D:colors",
-                "/site/closed": "Boxes3D:centers"}[chunk.entity_path]  # fmt: skip
+        name = COLUMNS[chunk.entity_path]
         rows = columns.setdefault(chunk.entity_path, {})
         for t, row in zip(batch.column("step").to_pylist(), batch.column(name).to_pylist(),
                           strict=True):  # fmt: skip
@@ -241,6 +247,10 @@ def test_replay_draws_deliveries_breakdowns_and_closures(tmp_path):
     assert len(closed[zone.start]) >= 1
     open_steps = [t for t in closed if not schedule.closures_at(t)]
     assert all(closed[t] in ([], None) for t in open_steps)
+    # The text log tells the site events.
+    texts = " / ".join(t for row in columns["/events"].values() for t in row)
+    for words in ("breaks down", "is back", "is delivered", "a zone closes"):
+        assert words in texts, words
 
 
 def _eventful(env, seed: int) -> bool:
