@@ -218,18 +218,12 @@ def test_replay_draws_deliveries_breakdowns_and_closures(tmp_path):
     seed = next(s for s in range(50) if _eventful(env, s))
     path = tmp_path / "events.rrd"
     policy = policies.make("replanning", env, seed=seed)
-    viewer.record_and_save(env, policy, seed, path, "replanning")
+    record = viewer.record_and_save(env, policy, seed, path, "replanning")
     schedule = env.sim.schedule
-    columns: dict[str, dict[int, list]] = {}
-    for chunk in RrdReader(path).stream().to_chunks():
-        if chunk.is_static or chunk.entity_path not in COLUMNS:
-            continue
-        batch = chunk.to_record_batch()
-        name = COLUMNS[chunk.entity_path]
-        rows = columns.setdefault(chunk.entity_path, {})
-        for t, row in zip(batch.column("step").to_pylist(), batch.column(name).to_pylist(),
-                          strict=True):  # fmt: skip
-            rows[t] = row
+    columns = _replay_columns(RrdReader, path)
+    # The record re-simulates with its events, and its replay draws the same.
+    viewer.record_to_rrd(record, tmp_path / "again.rrd")
+    assert _replay_columns(RrdReader, tmp_path / "again.rrd") == columns
     # A late component is not drawn before its delivery (a zero box), and drawn after.
     late = int(np.argmax(schedule.arrival))
     halves = columns["/components"]
@@ -253,11 +247,29 @@ def test_replay_draws_deliveries_breakdowns_and_closures(tmp_path):
         assert words in texts, words
 
 
+def _replay_columns(RrdReader, path) -> dict[str, dict[int, list]]:
+    """Per entity of ``COLUMNS``: step -> that column's row."""
+    columns: dict[str, dict[int, list]] = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.is_static or chunk.entity_path not in COLUMNS:
+            continue
+        batch = chunk.to_record_batch()
+        name = COLUMNS[chunk.entity_path]
+        rows = columns.setdefault(chunk.entity_path, {})
+        for t, row in zip(batch.column("step").to_pylist(), batch.column(name).to_pylist(),
+                          strict=True):  # fmt: skip
+            rows[t] = row
+    return columns
+
+
 def _eventful(env, seed: int) -> bool:
     env.reset(seed=seed)
     s = env.sim.schedule
-    return bool(s.outages) and bool(s.closures) and int(s.arrival.max()) > 0 and (
-        s.outages[0].start < 60 and s.closures[0].start < 60
+    return (
+        bool(s.outages)
+        and bool(s.closures)
+        and int(s.arrival.max()) > 0
+        and (s.outages[0].start < 60 and s.closures[0].start < 60)
     )
 
 
