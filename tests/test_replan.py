@@ -76,6 +76,90 @@ def test_cell_summary_and_table():
     assert "(67%)" in table and "31.0 (100%)" in table
 
 
+# -- what a planner sees of the events: hand-built states ---------------------------------------
+
+
+def fake_sim(status, holder, cells, down=(), closed=(), undelivered=(), schedule=True):
+    """The few fields ``multicrane.event_view`` reads, for table-driven cases."""
+    n = len(status)
+    mask = np.zeros(64, dtype=bool)
+    mask[list(closed)] = True
+    return SimpleNamespace(
+        schedule=object() if schedule else None,
+        n_cranes=2,
+        crane_up=lambda k: k not in down,
+        delivered=lambda c: c not in undelivered,
+        closed=mask,
+        site=SimpleNamespace(n_components=n),
+        state=SimpleNamespace(status=np.array(status), holder=np.array(holder), cells=cells),
+    )
+
+
+# status: 0 initial, 1 in transit, 2 arrived, 3 assembled; holder -1: none
+FROZEN_CASES = [
+    ("nothing happens", dict(), set()),
+    ("held by a crane that is down", dict(down={1}), {1}),
+    ("the crane of the other one is down", dict(down={0}), set()),
+    ("a cell inside a closed zone", dict(closed={21}), {1}),
+    ("a closed cell beside it", dict(closed={22}), set()),
+    ("a closed yard cell: not in transit", dict(closed={10}), set()),
+    ("arrived, its crane down: not in transit", dict(down={0, 1}), {1}),
+]
+
+
+@pytest.mark.parametrize(
+    ("case", "events", "frozen"), FROZEN_CASES, ids=[c[0] for c in FROZEN_CASES]
+)
+def test_frozen_components(case, events, frozen):
+    from multicrane.event_view import event_view, frozen_components
+
+    # component 0 initial in the yard, 1 in transit held by crane 1, 2 arrived held by crane 0
+    sim = fake_sim([0, 1, 2], [-1, 1, 0], [[10, 11], [20, 21], [30, 31]], **events)
+    view = event_view(sim)
+    assert frozen_components(sim, view) == frozen
+    assert view.down == frozenset(events.get("down", ()))
+    assert view.closed == tuple(sorted(events.get("closed", ())))
+
+
+def test_event_view_without_events_and_quiet():
+    from multicrane.event_view import event_view, frozen_components
+
+    sim = fake_sim([1], [0], [[5]], down={0}, schedule=False)
+    assert event_view(sim) is None and frozen_components(sim, None) == set()
+    assert event_view(fake_sim([0], [-1], [[5]])).quiet
+    late = event_view(fake_sim([0], [-1], [[5]], undelivered={0}))
+    assert late.undelivered == {0} and not late.quiet
+
+
+def test_closed_cells_are_reserved_for_ever_and_block_a_claim():
+    """A closed zone over a component's pick-up pose: the carrier's table holds the closed
+    cells from now on, and the component cannot be started; it can once the zone opens."""
+    from multicrane.carrier_events import CLOSED, EventCarrier
+    from multicrane.events import EventSchedule, EventSpec, closure
+    from multicrane.reservations import INF
+    from multicrane.simulator import Simulator
+
+    scenario = multicrane.load_scenario("e3s2")
+    sim = Simulator(scenario, 2, events=EventSpec())
+    sim.reset(np.random.default_rng(0))
+    comp = sim.claimable_components()[0]
+    x, y, _ = sim.site.cell(sim.state.pickup[comp][0])
+    zone = closure(sim.site, ((x, y, 1), (x, y, scenario.size[2])), 0, 3)
+    schedule = EventSchedule(np.zeros(sim.site.n_components, dtype=np.int64), [], [zone])
+    sim.reset(np.random.default_rng(0), start=sim.start, schedule=schedule)
+    carrier = EventCarrier(sim)
+    carrier.begin(0)
+    table = carrier._fresh_table(0)
+    assert all((0, INF, CLOSED) in table[j] for j in zone.cells)
+    target = sim.site.compatible[comp][0]
+    assert not carrier.try_start(0, comp, target)
+    for _ in range(3):
+        sim.step([6, 6])  # wait until the zone opens at step 3
+    carrier.begin(3)
+    assert not sim.closed.any()
+    assert any(carrier.try_start(0, comp, t) for t in sim.ready_targets(comp))
+
+
 # -- a hand-built disruption: a breakdown and a closed zone --------------------------------------
 
 
