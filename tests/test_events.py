@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from conftest import SCENARIOS, random_masked_actions, reach_skip
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from test_rules import C1, C2, micro_site
 
 from multicrane.crane_env import MultiCraneEnv
@@ -421,3 +423,60 @@ def test_events_table_round_trips_through_scenario_toml():
     s = parse_scenario(micro_site(extra=EVENTS_OK), "micro.toml")
     back = parse_scenario(to_toml(s), "micro.toml")
     assert back.events == s.events and back.components == s.components
+
+
+def test_task_level_parallel_api_with_events():
+    from pettingzoo.test import parallel_api_test
+
+    parallel_api_test(MultiCraneEnv("e2s2", 2, decisions="task", events="high"), num_cycles=30)
+
+
+@pytest.mark.parametrize("decisions", ["motion", "task"])
+def test_observation_shows_nothing_of_the_future(decisions):
+    """Two schedules that differ only after time 6 give the same observations until then."""
+    env = MultiCraneEnv("e3s2", 2, decisions=decisions, events="none")
+    C = env.sim.site.n_components
+    seen = []
+    for late, start in ((8, 7), (40, 30)):
+        arrival = np.zeros(C, dtype=np.int64)
+        arrival[[1, 3]] = late
+        shut = closure(env.sim.site, ((0, 0, 1), (2, 2, 2)), start, 50)
+        sched = EventSchedule(arrival, [Outage(0, start, start + 5)], [shut])
+        obs, _ = env.reset(seed=2, options={"schedule": sched})
+        steps = [obs]
+        while env.sim.state.step_count < 6:
+            obs, *_ = env.step(dict.fromkeys(env.agents, 0 if decisions == "task" else WAIT))
+            steps.append(obs)
+        seen.append(steps)
+    assert same(seen[0], seen[1])
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, database=None)
+@given(
+    st.floats(0, 1), st.tuples(st.integers(0, 30), st.integers(0, 30)).map(sorted),
+    st.floats(0, 0.3), st.tuples(st.integers(1, 20), st.integers(1, 20)).map(sorted),
+    st.floats(0, 0.3), st.tuples(st.integers(1, 9), st.integers(1, 9)).map(sorted),
+    st.integers(0, 2**32),
+)  # fmt: skip
+def test_drawn_schedules_keep_their_spec(late, delay, rate, duration, c_rate, size, seed):
+    """Property: whatever the spec, the schedule keeps its ranges, never overlaps one crane's
+    outages, starts nothing at 0 or past the horizon, and closes only cells of the site."""
+    spec = EventSpec(late_fraction=late, delay=tuple(delay), breakdown_rate=rate,
+                     breakdown_duration=tuple(duration), closure_rate=c_rate,
+                     closure_size=tuple(size), closure_duration=tuple(duration))  # fmt: skip
+    site = MICRO.site
+    prebuilt = np.array([False, False, True])
+    s = draw_schedule(spec, site, prebuilt, 2, 200, np.random.default_rng(seed))
+    assert s.arrival[2] == 0 and ((s.arrival == 0) | (s.arrival >= delay[0])).all()
+    assert (s.arrival <= delay[1]).all()
+    for k in range(2):
+        mine = sorted(o for o in s.outages if o.crane == k)
+        assert all(1 <= o.start < 200 and duration[0] <= o.end - o.start <= duration[1]
+                   for o in mine)  # fmt: skip
+        assert all(a.end <= b.start for a, b in zip(mine, mine[1:], strict=False))
+    for c in s.closures:
+        assert 1 <= c.start < 200 and duration[0] <= c.end - c.start <= duration[1]
+        assert c.cells and all(site.static[j] == 0 for j in c.cells)
+
+
+MICRO = Simulator(parse_scenario(micro_site(), "micro.toml"))
