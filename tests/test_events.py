@@ -274,7 +274,8 @@ def check_invariants(sim: Simulator, snap, closed_before, down_before) -> None:
         if moved and snap.delivered[c]:
             assert not closed_before[st.cells[c]].any(), "entered a closed cell"
             assert not closed_before[snap.cells[c]].any(), "left a closed zone"
-            assert not down_before[int(st.holder[c])], "a down crane moved its load"
+            crane = int(st.holder[c]) if st.holder[c] >= 0 else int(snap.holder[c])
+            assert crane < 0 or not down_before[crane], "a down crane moved its load"
     filled = occ > 0
     assert filled.sum() == seen.sum()  # no overlap: each cell holds one component
 
