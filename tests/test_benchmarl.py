@@ -9,7 +9,10 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 import runpy
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -27,11 +30,14 @@ from multicrane.integrations.benchmarl import (  # noqa: E402
     MulticraneClass,
     MulticraneTask,
     member_name,
+    register,
 )
 
 pytestmark = pytest.mark.benchmarl
 ROOT = Path(__file__).resolve().parents[1]
 RECIPE = ROOT / "docs" / "recipes" / "benchmarl_mappo.py"
+# The Hydra command of docs/ecosystem.md; the test adds a small run's experiment keys.
+HYDRA = "python -m multicrane.integrations.benchmarl_run algorithm=mappo task=multicrane/e3s2"
 torch.set_num_threads(1)
 
 
@@ -59,8 +65,6 @@ def _assert_masks_respected(experiment: Experiment) -> None:
 @pytest.fixture(scope="module")
 def mappo_recipe(tmp_path_factory):
     """The docs/ecosystem.md recipe, run once as it is (in a scratch working directory)."""
-    import os
-
     here = os.getcwd()
     os.chdir(tmp_path_factory.mktemp("benchmarl"))
     try:
@@ -180,3 +184,55 @@ def test_continuous_actions_are_refused():
     task = MulticraneTask.E3S2.get_task({})
     with pytest.raises(ValueError, match="discrete actions only"):
         task.get_env_fun(num_envs=1, continuous_actions=True, seed=0, device="cpu")
+
+
+def test_register_names_every_scenario_and_can_run_twice():
+    names = register()
+    assert names == register()
+    assert set(names) == {f"multicrane/{n.lower()}" for n in _members()}
+
+
+def _members() -> list[str]:
+    return [m.name for m in MulticraneTask]
+
+
+def test_the_hydra_command_of_the_docs_trains_and_saves_a_checkpoint(tmp_path):
+    assert HYDRA in (ROOT / "docs" / "ecosystem.md").read_text()
+    small = [
+        "task.n_cranes=2",
+        "task.max_cycles=30",
+        "experiment.max_n_iters=1",
+        "experiment.max_n_frames=null",
+        "experiment.on_policy_collected_frames_per_batch=60",
+        "experiment.on_policy_n_envs_per_worker=2",
+        "experiment.on_policy_minibatch_size=30",
+        "experiment.on_policy_n_minibatch_iters=1",
+        "experiment.evaluation_episodes=1",
+        "experiment.loggers=[csv]",
+        "experiment.checkpoint_at_end=true",
+        f"hydra.run.dir={tmp_path}",
+    ]
+    env = dict(os.environ, OMP_NUM_THREADS="1", PYTHONPATH=str(ROOT))
+    done = subprocess.run(
+        [sys.executable, *HYDRA.split()[1:], *small],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert list(tmp_path.glob("mappo_e3s2_mlp_*/checkpoints/checkpoint_*.pt"))
+
+
+def test_same_seed_same_rollout_through_the_wrapper():
+    task = MulticraneTask.E3S2.get_task({"n_cranes": 2, "max_cycles": 15})
+    rollouts = []
+    for _ in range(2):
+        env = task.get_env_fun(num_envs=1, continuous_actions=False, seed=3, device="cpu")()
+        torch.manual_seed(0)  # TorchRL's random actions
+        rollouts.append(env.rollout(15))
+    a, b = rollouts
+    assert torch.equal(a["crane", "action"], b["crane", "action"])
+    assert torch.equal(a["next", "state"], b["next", "state"])
+    assert torch.equal(a["next", "crane", "reward"], b["next", "crane", "reward"])

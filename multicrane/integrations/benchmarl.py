@@ -17,6 +17,9 @@ TorchRL 0.11), in a venv without the ``torchrl`` extra (TorchRL 0.14): the two c
 - ``MulticraneTask``: BenchMARL's task enum, one member per shipped scenario (``E3S2``,
   ``FRAME2_3C``, ...; the name upper-cased, ``-`` as ``_``). ``get_task(config)`` and
   ``get_from_yaml()`` (no path: the defaults below) give a ``MulticraneClass``.
+- ``register()``: puts every member in BenchMARL's task registry and Hydra's config store as
+  ``multicrane/<scenario>``, for BenchMARL's Hydra command line
+  (``python -m multicrane.integrations.benchmarl_run algorithm=mappo task=multicrane/e3s2``).
 - ``MulticraneClass``: the task. ``get_env_fun`` returns TorchRL's own ``PettingZooWrapper``
   around ``multicrane.parallel_env`` (categorical actions, the action mask read from the
   observation, the global ``state()`` for centralised critics), no custom wrapper; the specs
@@ -165,3 +168,20 @@ class _MulticraneTaskBase(Task):
 
 MulticraneTask = _MulticraneTaskBase("MulticraneTask", list(_SCENARIOS), module=__name__)
 MulticraneTask.__doc__ = "BenchMARL's task enum for multicrane: one member per shipped scenario."
+
+
+def register() -> list[str]:
+    """Every ``MulticraneTask`` member in BenchMARL's task registry and in Hydra's config
+    store as ``multicrane/<scenario>`` (its config: the defaults); returns the names. Safe
+    to call again."""
+    from benchmarl.environments import task_config_registry
+    from hydra.core.config_store import ConfigStore
+
+    store = ConfigStore.instance()
+    names = []
+    for member in MulticraneTask:
+        name = f"{ENV_NAME}/{member.name.lower()}"
+        task_config_registry[name] = member
+        store.store(group=f"task/{ENV_NAME}", name=member.name.lower(), node=dict(DEFAULTS))
+        names.append(name)
+    return names
