@@ -236,3 +236,14 @@ def test_same_seed_same_rollout_through_the_wrapper():
     assert torch.equal(a["crane", "action"], b["crane", "action"])
     assert torch.equal(a["next", "state"], b["next", "state"])
     assert torch.equal(a["next", "crane", "reward"], b["next", "crane", "reward"])
+
+
+def test_a_yaml_config_file_and_a_bad_value(tmp_path):
+    path = tmp_path / "task.yaml"
+    path.write_text("n_cranes: 2\ndecisions: task\nmax_cycles: 12\n")
+    task = MulticraneTask.E3S2.get_from_yaml(str(path))
+    assert task.config == {"n_cranes": 2, "decisions": "task", "max_cycles": 12}
+    assert task.make_env().decisions == "task" and task.max_steps(None) == 12
+    bad = MulticraneTask.E3S2.get_task({"decisions": "plans"})
+    with pytest.raises(ValueError, match="plans"):
+        bad.make_env()

@@ -31,6 +31,8 @@ path), ``n_cranes`` (None: the scenario's), ``decisions`` (``"motion"`` or ``"ta
 the other ``MultiCraneEnv`` keywords ``max_steps``, ``reward``, ``reward_mode``,
 ``task_patience``, ``task_site_planes``, ``auto``, ``strict``. The observation format, the
 infos and rendering are fixed by the task (what TorchRL batches); any other key is refused.
+BenchMARL names its run folders and results after the member (``mappo_e3s2_mlp__...``),
+also when ``scenario`` names another site.
 """
 
 from __future__ import annotations
