@@ -14,6 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 RECIPES = sorted((ROOT / "docs" / "recipes").glob("*.py"))
 NEEDS = {
+    "benchmarl_mappo": "benchmarl",  # its own venv: tools/test_benchmarl.sh
     "pettingzoo_checks": "pettingzoo",
     "rllib_ppo": "multicrane.integrations.rllib",
     "sb3_maskable_gymnasium": "sb3_contrib",
