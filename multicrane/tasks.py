@@ -16,7 +16,7 @@ With site events (``multicrane.events``) a crane that is down is allowed no task
 not yet delivered is not claimable and a target with a closed cell is not ready, so neither
 appears in an allowed task; a busy crane that breaks down keeps its task (it waits).
 
-**Hold, retry, drop.** A chosen task is handed to the carrier (``multicrane.carrier``). If
+**Hold, retry, drop.** A chosen task is handed to the carrier (``multicrane.carrier_events``: it replans on site events). If
 its space-time search fails now, the crane *holds* the task: it is busy, nothing is lifted,
 the component and target are kept for it, and the search is tried again before every
 simulated step; when ``patience`` simulated steps have passed since it was chosen without a
@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from multicrane.carrier import Carrier
+from multicrane.carrier_events import EventCarrier
 from multicrane.paths import UNREACHABLE, breadth_first, fits_everywhere
 from multicrane.reservations import goal_position
 from multicrane.simulator import FREE, NOBODY, Simulator
@@ -101,7 +101,7 @@ class TaskBook:
         self.sim = sim
         self.patience = int(patience)
         self.tasks = TaskList(sim)
-        self.carrier = Carrier(sim, slack, max_expansions)
+        self.carrier = EventCarrier(sim, slack, max_expansions)  # replans on site events
         self.static = StaticPaths(sim)
         self.n_actions = 1 + len(self.tasks)
 
