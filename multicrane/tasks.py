@@ -19,10 +19,10 @@ appears in an allowed task; a busy crane that breaks down keeps its task (it wai
 **Hold, retry, drop.** A chosen task is handed to the carrier (``multicrane.carrier_events``:
 it replans on site events). If its space-time search fails now, the crane *holds* the task:
 it is busy, nothing is lifted, the component and target are kept for it, and the search is
-tried again before every
-simulated step; when ``patience`` simulated steps have passed since it was chosen without a
-path, the task is dropped after that step and the crane is idle again (a ``TASK_DROPPED``
-task event; the environment's step returns then, as for any crane becoming idle).
+tried again before every simulated step; when ``patience`` simulated steps have passed since
+it was chosen without a path, the task is dropped after that step and the crane is idle again
+(a ``TASK_DROPPED`` task event; the environment's step returns then, as for any crane
+becoming idle).
 
 Task events are ``(name, crane, task)`` tuples: ``TASK_STARTED`` (the carrier has a path:
 the claim is the next step), ``TASK_HELD`` (chosen, no path yet), ``TASK_DROPPED``,
