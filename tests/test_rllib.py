@@ -103,6 +103,7 @@ def test_cli_rllib_backend_refuses_options_it_does_not_take(argv, message, capsy
 
 
 @pytest.mark.ray
+@pytest.mark.long
 def test_train_command_on_a_local_cluster_and_the_checkpoint_reloads(tmp_path, monkeypatch):
     from ray._private import ray_constants
     from ray.cluster_utils import Cluster
