@@ -2,10 +2,11 @@
 
 Random masked play (a uniformly random legal action per crane) runs on every shipped scenario:
 10,000 joint steps with the scenario's own cranes, 3,000 with three cranes, and 5,000 in the
-paper's automatic mode with one crane on the e?s? scenarios. Random play seldom builds
-anything, so a guided variant (legal actions biased towards the held component's free
-targets) also runs on every scenario and must assemble components. After every step the
-checker asserts, with numpy on the whole grid:
+paper's automatic mode with one crane on the e?s? scenarios (these are the ``-m long`` sizes;
+the default suite plays 1,000, 500 and 500 steps, and 300 guided steps instead of 1,200).
+Random play seldom builds anything, so a guided variant (legal actions biased towards the
+held component's free targets) also runs on every scenario and must assemble components.
+After every step the checker asserts, with numpy on the whole grid:
 
 - the occupancy grid agrees with the components (each component's cells hold its value, no
   cell holds two components, no stray component cells), the walls and obstacles never change,
