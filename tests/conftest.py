@@ -2,9 +2,13 @@
 
 ``SCENARIOS`` (every shipped scenario, read once at import so that test modules can build their
 parametrization from it), ``reach_skip`` (why a scenario cannot run with a crane count under
-crane reach) and ``random_masked_actions`` (a uniformly random legal action per agent) are
+crane reach), ``random_masked_actions`` (a uniformly random legal action per agent) and
+``sizes`` (a run's default-suite size and its full size behind the ``long`` marker) are
 imported by the test modules with ``from conftest import ...``; the fixtures below
 hand the same objects to tests that prefer fixtures.
+
+Tests marked ``long`` (end-to-end runs: training, Ray clusters, sweeps) are skipped unless
+selected with ``-m long``; CI runs them as their own step (``.ci/run``, docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -20,6 +24,22 @@ import pytest  # noqa: E402
 import multicrane  # noqa: E402
 
 SCENARIOS: list[str] = multicrane.scenario_names()
+
+
+def pytest_collection_modifyitems(config, items):
+    """Skip the ``long`` tests unless the run selects them (``-m long``), as ``fuzz`` does."""
+    if "long" in (config.getoption("-m") or ""):
+        return
+    skip = pytest.mark.skip(reason="a long run: bash tools/test.sh -m long (CI runs it)")
+    for item in items:
+        if item.get_closest_marker("long") is not None:
+            item.add_marker(skip)
+
+
+def sizes(default: int, full: int) -> list:
+    """Parameters for one run in two sizes: ``default`` in the default suite, ``full`` behind
+    the ``long`` marker (CI runs both), so the default stays fast and nothing is lost."""
+    return [default, pytest.param(full, marks=pytest.mark.long)]
 
 
 def reach_skip(name: str, n_cranes: int | None) -> str | None:

@@ -590,6 +590,7 @@ def local_ray(monkeypatch):
 
 
 @pytest.mark.ray
+@pytest.mark.long
 @pytest.mark.skipif(not HAVE_TRAINING, reason="needs the train extra (stable-baselines3)")
 def test_ray_backend_runs_a_tiny_sweep(tmp_path, local_ray):
     from multicrane.benchmark.ray_backend import RayBackend

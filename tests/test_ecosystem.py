@@ -33,7 +33,15 @@ def test_every_recipe_is_in_the_page_and_has_its_library_named():
         assert f"docs/recipes/{r.name}" in page, f"docs/ecosystem.md does not show {r.name}"
 
 
-@pytest.mark.parametrize("recipe", RECIPES, ids=lambda p: p.stem)
+# Builds and trains an RLlib algorithm (about 25 s): behind the ``long`` marker (-m long).
+LONG = {"rllib_ppo"}
+
+
+@pytest.mark.parametrize(
+    "recipe",
+    [pytest.param(r, marks=pytest.mark.long) if r.stem in LONG else r for r in RECIPES],
+    ids=lambda p: p.stem,
+)
 def test_recipe_runs(recipe, monkeypatch, capsys):
     pytest.importorskip(NEEDS[recipe.stem], exc_type=ImportError)
     monkeypatch.chdir(ROOT)

@@ -96,6 +96,7 @@ def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
     assert "single-agent benchmark mode" in capsys.readouterr().err
 
 
+@pytest.mark.long
 def test_demo_trains_evaluates_and_records(tmp_path, capsys):
     pytest.importorskip("rerun")
     code = main(

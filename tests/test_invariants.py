@@ -2,10 +2,11 @@
 
 Random masked play (a uniformly random legal action per crane) runs on every shipped scenario:
 10,000 joint steps with the scenario's own cranes, 3,000 with three cranes, and 5,000 in the
-paper's automatic mode with one crane on the e?s? scenarios. Random play seldom builds
-anything, so a guided variant (legal actions biased towards the held component's free
-targets) also runs on every scenario and must assemble components. After every step the
-checker asserts, with numpy on the whole grid:
+paper's automatic mode with one crane on the e?s? scenarios (these are the ``-m long`` sizes;
+the default suite plays 1,000, 500 and 500 steps, and 300 guided steps instead of 1,200).
+Random play seldom builds anything, so a guided variant (legal actions biased towards the
+held component's free targets) also runs on every scenario and must assemble components.
+After every step the checker asserts, with numpy on the whole grid:
 
 - the occupancy grid agrees with the components (each component's cells hold its value, no
   cell holds two components, no stray component cells), the walls and obstacles never change,
@@ -29,7 +30,7 @@ from collections import Counter
 
 import numpy as np
 import pytest
-from conftest import SCENARIOS, random_masked_actions, reach_skip, readable_env
+from conftest import SCENARIOS, random_masked_actions, reach_skip, readable_env, sizes
 
 from multicrane.geometry import extent
 from multicrane.observation import Observer
@@ -474,26 +475,29 @@ def play(name, steps, n_cranes=None, auto=False, seed=0, guided=False, fresh_eve
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("steps", sizes(1_000, 10_000))
 @pytest.mark.parametrize("name", SCENARIOS)
-def test_random_play_scenario_cranes(name):
-    checker = play(name, 10_000, seed=1)
-    assert checker.steps == 10_000
+def test_random_play_scenario_cranes(name, steps):
+    checker = play(name, steps, seed=1)
+    assert checker.steps == steps
     assert checker.events["LIFTED"] > 0
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("steps", sizes(500, 3_000))
 @pytest.mark.parametrize("name", SCENARIOS)
-def test_random_play_three_cranes(name):
-    checker = play(name, 3_000, n_cranes=3, seed=2)
-    assert checker.steps == 3_000
+def test_random_play_three_cranes(name, steps):
+    checker = play(name, steps, n_cranes=3, seed=2)
+    assert checker.steps == steps
     assert checker.events["LIFTED"] > 0
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("steps", sizes(500, 5_000))
 @pytest.mark.parametrize("name", PAPER_SCENARIOS)
-def test_random_play_automatic_mode(name):
-    checker = play(name, 5_000, n_cranes=1, auto=True, seed=3)
-    assert checker.steps == 5_000
+def test_random_play_automatic_mode(name, steps):
+    checker = play(name, steps, n_cranes=1, auto=True, seed=3)
+    assert checker.steps == steps
     assert checker.events["LIFTED"] > 0
 
 
@@ -511,9 +515,10 @@ GUIDED = [
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("steps", sizes(300, 1_200))  # the first assembly: by step 42 at most
 @pytest.mark.parametrize(("name", "n", "auto"), GUIDED)
-def test_guided_play(name, n, auto):
-    checker = play(name, 1_200, n_cranes=n, auto=auto, seed=4, guided=True, fresh_every=10)
+def test_guided_play(name, n, auto, steps):
+    checker = play(name, steps, n_cranes=n, auto=auto, seed=4, guided=True, fresh_every=10)
     assert checker.events["ARRIVED"] > 0
     assert checker.events["ASSEMBLED"] > 0
 

@@ -32,7 +32,7 @@ import warnings
 import gymnasium
 import numpy as np
 import pytest
-from conftest import READABLE, readable_paper_env  # noqa: E402
+from conftest import READABLE, readable_paper_env, sizes  # noqa: E402
 from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
@@ -353,10 +353,11 @@ def _noisy_greedy_chooser(env: PaperAssemblyEnv, seed: int, eps: float = 0.2):
     return choose
 
 
+@pytest.mark.parametrize("n_seeds", sizes(5, 15))
 @pytest.mark.parametrize("config", PAPER_CONFIGS)
-def test_no_policy_beats_the_planner(config):
+def test_no_policy_beats_the_planner(config, n_seeds):
     env = readable_paper_env(config)
-    for seed in range(100, 115):
+    for seed in range(100, 100 + n_seeds):
         best = cached_plan(config, seed).episode_return
         for name, choose in (
             ("random", _random_chooser(seed)),

@@ -1,11 +1,12 @@
 """RLlib (new API stack): the adapter, the registered environments, ``train --backend rllib``.
 
-The adapter tests import RLlib but start no Ray (a few seconds). The training test (marker
-``ray``) starts a Ray cluster on 127.0.0.1 (a head node with two CPUs) and runs
-``multicrane train --backend rllib --address ...`` in a subprocess against it: two small
-iterations of the shared masked PPO policy on e2s2 with two env runners (two worker
-processes), then reloads the checkpoint here. About 15-20 s on a quiet 2-core machine (66 s
-measured under a load average of 5-10). All skip when the ``rllib`` extra is not installed.
+The adapter tests import RLlib but start no Ray (a few seconds). The training test (markers
+``ray`` and ``long``: it runs with ``-m long``) starts a Ray cluster on 127.0.0.1 (a head
+node with two CPUs) and runs ``multicrane train --backend rllib --address ...`` in a
+subprocess against it: two small iterations of the shared masked PPO policy on e2s2 with two
+env runners (two worker processes), then reloads the checkpoint here. About 15-20 s on a
+quiet 2-core machine (66 s measured under a load average of 5-10). All skip when the
+``rllib`` extra is not installed.
 """
 
 from __future__ import annotations
@@ -103,6 +104,7 @@ def test_cli_rllib_backend_refuses_options_it_does_not_take(argv, message, capsy
 
 
 @pytest.mark.ray
+@pytest.mark.long
 def test_train_command_on_a_local_cluster_and_the_checkpoint_reloads(tmp_path, monkeypatch):
     from ray._private import ray_constants
     from ray.cluster_utils import Cluster

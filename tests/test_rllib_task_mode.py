@@ -1,7 +1,7 @@
 """Task-level decisions through RLlib: the adapter, and ``train --backend rllib --decisions task``.
 
-The training test (marker ``ray``) runs the command in its own process on a local Ray
-instance (no cluster: tests/test_rllib.py covers ``--address``), one small iteration, then
+The training test (markers ``ray`` and ``long``) runs the command in its own process on a
+local Ray instance (no cluster: tests/test_rllib.py covers ``--address``), one small iteration, then
 reloads the checkpoint here and plays task mode with it. About 15 s on a quiet 2-core
 machine, 43 s measured under a load average of 5. All skip without the ``rllib`` extra.
 """
@@ -48,6 +48,7 @@ def test_adapter_in_task_mode_has_the_task_action_space_and_ends_once():
 
 
 @pytest.mark.ray
+@pytest.mark.long
 def test_train_command_in_task_mode_and_the_module_picks_legal_tasks(tmp_path):
     out = tmp_path / "run"
     env = {**os.environ, "OMP_NUM_THREADS": "1"}

@@ -898,6 +898,7 @@ def test_cli_rejects_bad_settings(cli, tmp_path, capsys):
 # -- 11. the real signal path --------------------------------------------------------------------
 
 
+@pytest.mark.long
 def test_cli_sigint_checkpoints_and_resumes(tmp_path):
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "multicrane", "train", "--paper", "E1S1", "--algo", "ppo"]

@@ -4,4 +4,4 @@
 MULTICRANE_EXTRAS="train,test,replay,bench,ray,tianshou,torchrl,rllib,ifc"
 source "$(dirname "$0")/_venv.sh"
 "$PY" -m ruff check multicrane policies tools tests
-"$PY" -m pytest -q "$@"
+"$PY" -m pytest -q --durations=15 "$@"
