@@ -336,12 +336,19 @@ class Carrier:
             stops = self._stops(comp, rel, t)
             path = self._search(comp, rel, start, T, goal, stops, res, crane)
             if path is not None:
-                res.release(comp)
-                plan = Plan(comp, crane, t, T, path, claim=False)
-                self._new_plan(plan)
-                res.reserve_plan(plan, rel, T)
+                self._replace_transit_plan(comp, crane, t, T, path, rel, res)
                 return True
         return False
+
+    def _replace_transit_plan(
+        self, comp: int, crane: int, target: int, T: int, path, rel: tuple[int, ...],
+        res: ReservationTable,
+    ) -> None:  # fmt: skip
+        """Give a component in transit a new plan along ``path``: its old reservations go."""
+        res.release(comp)
+        plan = Plan(comp, crane, target, T, path, claim=False)
+        self._new_plan(plan)
+        res.reserve_plan(plan, rel, T)
 
     def _plan_parked(self, comps: list[int], T: int, res: ReservationTable) -> list[int]:
         """Plan components in transit that have no plan, in order; returns those still parked."""

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from multicrane.carrier import Carrier
 from multicrane.event_view import EventView, event_view, frozen_components
-from multicrane.reservations import INF, Plan, ReservationTable, goal_position, shape_of
+from multicrane.reservations import INF, ReservationTable, goal_position, shape_of
 from multicrane.types import WAIT, Status
 
 CLOSED = -2  # the owner of a closed cell's reservations (components are 0..C-1)
@@ -134,10 +134,7 @@ class EventCarrier(Carrier):
             # arrives only by moving in, so it steps out and back.
             path = self._out_and_back(comp, rel, start, T, res, crane, t)
             if path is not None:
-                res.release(comp)
-                plan = Plan(comp, crane, t, T, path, claim=False)
-                self._new_plan(plan)
-                res.reserve_plan(plan, rel, T)
+                self._replace_transit_plan(comp, crane, t, T, path, rel, res)
                 return True
         return super()._plan_transit(comp, T, res)
 
