@@ -241,3 +241,45 @@ def test_training_environments_have_the_runs_events(policy, decisions):
     assert all(_has_level(env, "high") for env in venv.envs)
     if policy == "set":
         assert venv.limits.events
+
+
+def test_rllib_backend_passes_the_level_to_its_environments(monkeypatch, capsys):
+    rllib = pytest.importorskip("multicrane.integrations.rllib", exc_type=ImportError)
+    from multicrane.integrations import rllib_train
+
+    seen = {}
+
+    def fake_train(scenario, n_cranes, out, **kwargs):
+        seen.update(kwargs["env_options"])
+        raise ValueError("stopped before Ray")
+
+    monkeypatch.setattr(rllib_train, "train_rllib", fake_train)
+    argv = ["train", "--backend", "rllib", "--scenario", "e2s2", "--decisions", "task",
+            "--events", "low"]  # fmt: skip
+    assert main(argv) == 2 and "stopped before Ray" in capsys.readouterr().err
+    assert seen == {"auto": False, "decisions": "task", "events": "low"}
+    env = rllib.CraneMultiAgentEnv({"scenario": "e2s2", "n_cranes": 2, **seen})
+    assert _has_level(env.env, "low")
+
+
+def test_plan_with_a_motion_run_plays_its_level_unless_told(tmp_path, built, capsys):
+    pytest.importorskip("stable_baselines3")
+    pytest.importorskip("sb3_contrib")
+    out = tmp_path / "mlp-high"
+    assert main(["train", "--scenario", "e2s2", "--cranes", "2", "--events", "high", "--steps",
+                 "64", "--envs", "1", "--eval-episodes", "1", "--checkpoint-every", "0",
+                 "--set", "n_steps=32", "--set", "batch_size=32", "--no-progress",
+                 "--out", str(out)]) == 0  # fmt: skip
+    for extra, level in (([], "high"), (["--events", "none"], "none")):
+        built.clear()
+        assert main(["plan", "e2s2", "--cranes", "2", "--policy", str(out), *extra]) == 0
+        assert built and all(_has_level(env, level) for env in built)
+
+
+def test_uncertainty_benchmark_plays_a_task_level_run(events_run, capsys):
+    out = events_run[0]
+    assert main(["uncertainty", "--scenarios", "e2s2:2", "--levels", "none", "high",
+                 "--policies", str(out), "replanning", "--seeds", "1",
+                 "--bound-time", "0"]) == 0  # fmt: skip
+    text = capsys.readouterr().out
+    assert f"maskable_ppo ({out.name})" in text and "| e2s2 | 2 | high |" in text
