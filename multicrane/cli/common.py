@@ -52,7 +52,7 @@ def formatter() -> dict:
 
 def add_environment_args(p: argparse.ArgumentParser, required: bool = True) -> None:
     """``--paper CONFIG`` or ``--scenario NAME`` (one of them), ``--cranes``, ``--auto``,
-    ``--decisions``."""
+    ``--decisions``, ``--events``."""
     where = p.add_mutually_exclusive_group(required=required)
     where.add_argument("--paper", metavar="CONFIG", help="single-agent benchmark: E1S1 .. E4S4")
     where.add_argument("--scenario", help="multi-agent: shipped scenario name or .toml path")
@@ -61,6 +61,33 @@ def add_environment_args(p: argparse.ArgumentParser, required: bool = True) -> N
     p.add_argument("--decisions", choices=("motion", "task"), default="motion",
                    help="multi-agent decision level: motion (every move) or task (which "
                    "component to which target)")  # fmt: skip
+    add_events_arg(p)
+
+
+EVENT_LEVELS = ("none", "low", "high")  # multicrane.events.LEVELS (not imported: startup time)
+
+
+def add_events_arg(p: argparse.ArgumentParser) -> None:
+    """``--events LEVEL``: the site events of the multi-agent environment."""
+    p.add_argument("--events", choices=EVENT_LEVELS, default=None,
+                   help="multi-agent: site events (late deliveries, breakdowns, closed zones; "
+                   "docs/uncertainty.md): none, low or high (default: the scenario's own "
+                   "[events] table, or a run directory policy's training level)")  # fmt: skip
+
+
+def run_events(level: str | None, factories) -> str | None:
+    """The events level to play: ``level`` if given, else the one the training runs among
+    ``factories`` (``policies.factory``) were trained with (None if none set one)."""
+    if level is not None:
+        return level
+    found = {getattr(f.config, "events", None) for f in factories if f.config is not None}
+    found.discard(None)
+    if len(found) > 1:
+        raise ValueError(
+            "the run directories were trained with different --events "
+            f"({', '.join(sorted(found))}): give --events LEVEL"
+        )
+    return found.pop() if found else None
 
 
 def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **options):
@@ -71,6 +98,10 @@ def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **option
     if paper:
         if options.get("decisions", "motion") != "motion":
             raise ValueError("--decisions task is a multi-agent option (use --scenario)")
+        if options.get("events") is not None:
+            raise ValueError(
+                f"--events {options['events']} is a multi-agent option (use --scenario)"
+            )
         return multicrane.PaperAssemblyEnv(paper, mask_blocked_moves=True)
     return multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, **options)
 

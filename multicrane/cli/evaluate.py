@@ -7,7 +7,14 @@ import time
 from pathlib import Path
 
 from multicrane.cli import progress
-from multicrane.cli.common import add_environment_args, counting, error, formatter, make_env
+from multicrane.cli.common import (
+    add_environment_args,
+    counting,
+    error,
+    formatter,
+    make_env,
+    run_events,
+)
 
 DESCRIPTION = """Evaluate policies (trained models, planners, greedy, random) on a scenario
 and seeds.
@@ -25,6 +32,9 @@ error over episodes, success rate, mean steps to finish (finished episodes), mea
 in paper mode the gap to the exact planner's return on the same seeds. --scenario
 set:test-small, set:test-large or set:train:FIRST-END evaluates on every site of a scenario
 set (multicrane.scenario_sets): each row pools the episodes of all its sites (the set's means).
+--events none|low|high plays the multi-agent mode with site events (docs/uncertainty.md);
+without it, the scenario's own [events] table, or the level the run directories were
+trained with (multicrane train --events).
 """
 
 
@@ -52,9 +62,11 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
     else:
         seeds = list(range(args.seed, args.seed + args.episodes))
     factories = [policies.factory(spec, paper=paper) for spec in args.policy]  # fail early
+    events = None if paper else run_events(args.events, factories)
     if not paper and args.scenario and is_set_ref(args.scenario):
-        return _evaluate_set(args, factories, seeds, advance)
-    env = make_env(args.paper, args.scenario, args.cranes, args.auto, decisions=args.decisions)
+        return _evaluate_set(args, factories, seeds, advance, events)
+    env = make_env(args.paper, args.scenario, args.cranes, args.auto, decisions=args.decisions,
+                   events=args.events if paper else events)  # fmt: skip
     best = optimal_returns(env, seeds) if paper else None
     rows = []
     for make in factories:
@@ -66,7 +78,8 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
     return rows
 
 
-def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], advance) -> list:
+def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], advance,
+                  events: str | None = None) -> list:  # fmt: skip
     """One row per policy over every site of the set ``args.scenario`` (``set:NAME``): its
     summary pools the episodes of all sites (so the means are the set's means)."""
     from multicrane.rollout import evaluate, summarise
@@ -78,7 +91,8 @@ def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], a
         start = time.perf_counter()
         pooled: list[dict] = []
         for _, scenario in sites:
-            env = make_env(None, scenario, args.cranes, args.auto, decisions=args.decisions)
+            env = make_env(None, scenario, args.cranes, args.auto, decisions=args.decisions,
+                           events=events)  # fmt: skip
             episodes, _ = evaluate(env, make, seeds, counting(advance) if advance else None)
             pooled += episodes
         summary = summarise(pooled)

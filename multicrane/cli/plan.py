@@ -6,7 +6,15 @@ import argparse
 from pathlib import Path
 
 from multicrane.cli import progress
-from multicrane.cli.common import counting, describe, error, formatter, make_env
+from multicrane.cli.common import (
+    add_events_arg,
+    counting,
+    describe,
+    error,
+    formatter,
+    make_env,
+    run_events,
+)
 
 DESCRIPTION = """Run policies on a scenario and print what they achieve.
 
@@ -16,6 +24,7 @@ DESCRIPTION = """Run policies on a scenario and print what they achieve.
     multicrane plan hall-4c --policy prioritized --record ep.json.gz --rrd ep.rrd
     multicrane plan set:test-small --policy prioritized greedy  # a held-out set: set means
     multicrane plan E2S2 --paper --policy optimal greedy         # single-agent paper mode
+    multicrane plan hall-4c --policy replanning static-plan --events high --episodes 5
 
 SCENARIO is a shipped scenario name or a .toml file (with --paper: a paper configuration,
 E1S1 .. E4S4), or a scenario set: set:test-small, set:test-large or set:train:FIRST-END
@@ -26,7 +35,9 @@ same for every policy. Prints, per policy: mean return ± standard error, succes
 makespan (joint steps to finish, finished episodes), steps, and in multi-agent mode crane
 utilisation, blocked moves and planning time per joint step. --record writes the first
 episode as an episode record (.json or .json.gz), --rrd as a rerun replay (the 'replay'
-extra); both need one policy, multi-agent mode.
+extra); both need one policy, multi-agent mode. --events none|low|high turns on site
+events (late deliveries, breakdowns, closed zones; docs/uncertainty.md); without it the
+scenario's own [events] table applies, or the level a run directory policy was trained with.
 """
 
 
@@ -49,6 +60,7 @@ def register(sub) -> None:
     p.add_argument("--render", action="store_true", help="print the site after the last episode")
     p.add_argument("--record", type=Path, help="write the first episode's record here")
     p.add_argument("--rrd", type=Path, help="write the first episode's 3D replay here (.rrd)")
+    add_events_arg(p)
     p.set_defaults(func=run)
 
 
@@ -109,20 +121,23 @@ def run(args: argparse.Namespace) -> int:
     if (args.record or args.rrd) and (args.paper or len(args.policy) != 1):
         return error("--record and --rrd need one policy in multi-agent mode")
     try:
+        if args.paper and args.events is not None:
+            return error(f"--events {args.events} is a multi-agent option (not with --paper)")
+        makers = [policies.factory(name, paper=args.paper) for name in args.policy]
+        if not args.paper:
+            args.events = run_events(args.events, makers)
         if is_set_ref(args.scenario) and not args.paper:
             if args.record or args.rrd or args.render:
                 return error("--record, --rrd and --render take one scenario, not a set")
-            makers = [policies.factory(name, paper=False) for name in args.policy]
             return run_set(args, makers, header(True), line)
         if args.paper:
             env = make_env(args.scenario)
         else:
             options = {} if args.max_steps is None else {"max_steps": args.max_steps}
             env = make_env(None, args.scenario, args.cranes, args.auto, render_mode="ansi",
-                           **options)  # fmt: skip
+                           events=args.events, **options)  # fmt: skip
         multi = not args.paper
         seeds = list(range(args.seed, args.seed + args.episodes))
-        makers = [policies.factory(name, paper=args.paper) for name in args.policy]
         print(describe(env))
         print(header(multi))
         for make in makers:

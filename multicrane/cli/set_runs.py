@@ -16,6 +16,8 @@ def run_set(args: argparse.Namespace, makers: list, header: str, line) -> int:
     sites = resolve_set(args.scenario)
     seeds = list(range(args.seed, args.seed + args.episodes))
     options = {} if args.max_steps is None else {"max_steps": args.max_steps}
+    if getattr(args, "events", None) is not None:  # multicrane plan --events
+        options["events"] = args.events
     totals: dict[str, list[dict]] = {m.label: [] for m in makers}
     print(f"scenario set {args.scenario[len('set:') :]}: {len(sites)} sites")
     print(f"{'site':<28} " + header)

@@ -19,6 +19,7 @@ for cranes (needs the 'train' extra).
     multicrane train --backend rllib --scenario e3s2 --cranes 2 --steps 20000 [--address auto]
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
     multicrane train --scenario set:train --curriculum grow --steps 300000
+    multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --events low
 
 The run lives in --out (default runs/<name>): config.json, checkpoint/ (every
 --checkpoint-every steps and on Ctrl-C), tb/ (tensorboard --logdir runs), then model.zip and
@@ -32,6 +33,10 @@ mode.
 with RLlib on a Ray cluster (--address auto, or ray://HOST:10001) or on a local Ray instance
 (no --address); --envs sets its env runners (default 2), --set its PPOConfig.training
 options. See multicrane.cli.train_rllib.
+
+--events none|low|high trains (and evaluates) with site events (docs/uncertainty.md; both
+decision levels, either backend); it is stored in config.json, so a resume, multicrane
+evaluate and multicrane plan --policy RUN_DIR play the same level unless told otherwise.
 """
 
 
@@ -127,6 +132,7 @@ def build_config(args: argparse.Namespace):
         set_limits=limits,
         curriculum=args.curriculum,
         workers=args.workers,
+        events=args.events,
     )
 
 

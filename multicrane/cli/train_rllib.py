@@ -54,6 +54,8 @@ def run_rllib(args: argparse.Namespace) -> int:
     cranes = f"{args.cranes}c-" if args.cranes else ""
     out = args.out or Path("runs") / f"rllib-{Path(args.scenario).stem}-{cranes}s{args.seed}"
     env_options = {"auto": args.auto, "decisions": args.decisions}
+    if args.events is not None:  # site events: one more environment option
+        env_options["events"] = args.events
     try:
         result = train_rllib(
             args.scenario, args.cranes, out, steps=args.steps, seed=args.seed,

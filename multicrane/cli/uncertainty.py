@@ -21,7 +21,9 @@ A scenario may name its crane count after a colon (e2s2:2); else --cranes, else 
 
 Policies (--policies): static-plan (one plan at reset for the undisturbed site, executed in
 order), replanning (the prioritized planner, which notices events and replans), greedy,
-random, or a trained run directory. Episodes start from reset seeds 1000 * s + e. --out
+random, or a trained run directory (a task-level run, e.g. the set policy trained with
+multicrane train --decisions task --policy set --events low, plays with task decisions;
+makespans are simulated steps either way). Episodes start from reset seeds 1000 * s + e. --out
 writes results.json, table.md and uncertainty.png (the plot needs matplotlib: the bench
 extra). One process; --bound-time 0 skips the bound.
 """
@@ -69,10 +71,11 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, multicrane.ScenarioError, OSError) as exc:
         return error(exc, 1)
     makers = {f.label: f for f in factories.values()}
+    decisions = {f.label: getattr(f.config, "decisions", "motion") for f in factories.values()}
     began = time.perf_counter()
     cells, bounds = run_benchmark(
         scenarios, args.levels, makers, seeds, args.bound_time,
-        progress=lambda line: print(line, flush=True),
+        progress=lambda line: print(line, flush=True), decisions=decisions,
     )  # fmt: skip
     wall = time.perf_counter() - began
     table = markdown_table(cells, bounds)

@@ -7,7 +7,9 @@ For every scenario x disruption level (``MultiCraneEnv(events=level)``: ``none``
 completed episodes (mean and its 95 % confidence interval, ``multicrane.stats.ci95``). The
 undisturbed site's proven makespan lower bound (``multicrane.bound``, the same start poses) is
 computed once per scenario and seed. Policies are handed in as ``make_policy(env, seed)``
-(``multicrane`` never imports ``policies``; the ``multicrane uncertainty`` command does).
+(``multicrane`` never imports ``policies``; the ``multicrane uncertainty`` command does); a
+policy that decides tasks (a learned task-level policy) is played with
+``decisions="task"``: its makespan is counted in the same simulated steps.
 """
 
 from __future__ import annotations
@@ -80,14 +82,14 @@ def episode_seeds(seeds: int, episodes: int) -> list[int]:
 
 def run_cell(
     scenario, n_cranes: int | None, level: str, policy: str, make_policy: MakePolicy,
-    seeds: Sequence[int],
+    seeds: Sequence[int], decisions: str = "motion",
 ) -> Cell:  # fmt: skip
-    """Play one cell's episodes, one environment reused."""
+    """Play one cell's episodes, one environment reused (at the ``decisions`` level)."""
     from multicrane.crane_env import MultiCraneEnv
     from multicrane.rollout import run_episode
 
     began = time.perf_counter()
-    env = MultiCraneEnv(scenario, n_cranes=n_cranes, events=level)
+    env = MultiCraneEnv(scenario, n_cranes=n_cranes, events=level, decisions=decisions)
     cell = Cell(env.scenario.name, env.sim.n_cranes, level, policy)
     for seed in seeds:
         result = run_episode(env, make_policy(env, seed), seed=seed)
@@ -111,10 +113,12 @@ def undisturbed_bound(scenario, n_cranes: int | None, seeds: Sequence[int],
 def run_benchmark(
     scenarios: Iterable[tuple], levels: Sequence[str], policies: dict[str, MakePolicy],
     seeds: Sequence[int], bound_time: float = 10.0,
-    progress: Callable[[str], None] | None = None,
+    progress: Callable[[str], None] | None = None, decisions: dict[str, str] | None = None,
 ) -> tuple[list[Cell], list[Bound]]:  # fmt: skip
     """Every scenario x level x policy cell, and each scenario's bound (``bound_time`` <= 0:
-    no bound); ``scenarios``: (scenario, crane count or None for its own) pairs."""
+    no bound); ``scenarios``: (scenario, crane count or None for its own) pairs;
+    ``decisions``: the decision level of a policy by name (default ``"motion"``)."""
+    decisions = decisions or {}
     for level in levels:
         if level not in LEVELS:
             raise ValueError(f"level must be one of {', '.join(LEVELS)}, got {level!r}")
@@ -124,7 +128,8 @@ def run_benchmark(
             bounds.append(undisturbed_bound(scenario, n_cranes, seeds, bound_time))
         for level in levels:
             for name, make in policies.items():
-                cell = run_cell(scenario, n_cranes, level, name, make, seeds)
+                cell = run_cell(scenario, n_cranes, level, name, make, seeds,
+                                decisions.get(name, "motion"))  # fmt: skip
                 cells.append(cell)
                 if progress is not None:
                     progress(describe(cell))

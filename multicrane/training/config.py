@@ -45,6 +45,8 @@ class TrainConfig:
     a curriculum over the generator's ``train`` sites (``multicrane.training.curriculum``;
     ``scenario`` is then ``"set:train"``), evaluated on ``set:test-small`` sites; ``workers``:
     processes running the set policy's environment copies (``multicrane.training.set_workers``).
+    ``events``: the site events of the multi-agent environments, ``"none"``, ``"low"`` or
+    ``"high"`` (``multicrane.events``; None: the scenario's own ``[events]`` table, if any).
     """
 
     scenario: str = "E2S2"
@@ -69,6 +71,7 @@ class TrainConfig:
     set_limits: dict[str, int] | None = None
     curriculum: str | None = None
     workers: int = 1
+    events: str | None = None
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -102,6 +105,7 @@ class TrainConfig:
             if not isinstance(self.shaping, (int, float)) or self.shaping < 0:
                 raise ConfigError(f"shaping={self.shaping!r}: must be a number >= 0")
         self._check_set_policy()
+        self._check_events()
         if not isinstance(self.hyperparams, dict):
             raise ConfigError(f"hyperparams={self.hyperparams!r}: must be a mapping")
         from multicrane.training.algorithms import algorithm, hyperparameters
@@ -157,6 +161,18 @@ class TrainConfig:
                 raise ConfigError(
                     f"scenario={self.scenario!r}: a curriculum trains on 'set:train'"
                 )
+
+    def _check_events(self) -> None:
+        if self.events is None:
+            return
+        from multicrane.events import LEVELS
+
+        if self.events not in LEVELS:
+            raise ConfigError(f"events={self.events!r}: one of {', '.join(LEVELS)} (or None)")
+        if self.paper:
+            raise ConfigError(f"events={self.events!r}: a multi-agent option, not paper mode")
+        if self.curriculum is not None:
+            raise ConfigError(f"events={self.events!r}: not available with a curriculum")
 
     @property
     def final_eval_episodes(self) -> int:

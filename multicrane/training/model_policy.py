@@ -76,6 +76,8 @@ class SetModelPolicy(SharedModelPolicy):
         super().__init__(model, env, deterministic)
         limits = model.policy.features_extractor.limits
         if not limits.fits(env.observation_layout):
+            if env.observation_layout.events is not None and not limits.events:
+                limits.check(env.observation_layout, env.scenario.name)  # names the option
             limits = union([env.observation_layout, _Layout(**limits.to_dict())])
         self.actor = SetActor(model.policy, limits)
         self.padder = Padder(env.observation_layout, self.actor.limits)
@@ -92,8 +94,9 @@ class SetModelPolicy(SharedModelPolicy):
 class _Layout:
     """Table sizes in ``TaskLayout``'s attribute names (for ``set_obs.union``)."""
 
-    def __init__(self, components: int, cranes: int, tasks: int):
+    def __init__(self, components: int, cranes: int, tasks: int, events: bool = False):
         self.n_components, self.n_cranes, self.n_tasks = components, cranes, tasks
+        self.events = (1, 1) if events else None  # only whether it is there matters
 
 
 def _is_set(model) -> bool:

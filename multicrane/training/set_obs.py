@@ -12,6 +12,15 @@ row major. Padding rows are zeros; the component table's ``reach_k`` columns are
 the site's cranes to N. A site exactly at the limits gives the header followed by the
 environment's own flat observation, unchanged. Actions are ``1 + P`` (wait, then task ``p``);
 a padded task is never allowed (``pad_mask``).
+
+With site events (``SetLimits.events``; ``docs/uncertainty.md``) each component row gains a
+last column ``delivered`` (after the N padded reach columns) and each crane row a last column
+``available``: C x (21 + N + 1) and N x 11. The task observation's ``closed`` (X, Y) block has
+no fixed shape across sites and is left out: closed zones reach the policy through the task
+mask (a task through a closed cell is not allowed) and the ``target_ready``/``claimable``
+columns. A site without events padded to limits with events shows every component delivered
+and every crane available (what a static site is); a site with events does not fit limits
+without them (the policy could not see the events): ``check`` says so.
 """
 
 from __future__ import annotations
@@ -40,17 +49,20 @@ class SetLimits:
     components: int
     cranes: int
     tasks: int
+    events: bool = False  # the delivered / available columns of sites with events
 
     def __post_init__(self) -> None:
         for name in ("components", "cranes", "tasks"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                 raise ValueError(f"SetLimits.{name}={value!r}: must be a positive integer")
+        if not isinstance(self.events, bool):
+            raise ValueError(f"SetLimits.events={self.events!r}: must be True or False")
 
     @classmethod
     def of(cls, layout: TaskLayout) -> SetLimits:
         """The limits that fit one site exactly."""
-        return cls(layout.n_components, layout.n_cranes, layout.n_tasks)
+        return cls(layout.n_components, layout.n_cranes, layout.n_tasks, _has_events(layout))
 
     def fits(self, layout: TaskLayout) -> bool:
         return (
@@ -58,12 +70,20 @@ class SetLimits:
             and layout.n_cranes <= self.cranes
             and layout.n_tasks <= self.tasks
             and layout.plan is None
+            and (self.events or not _has_events(layout))
         )
 
     def check(self, layout: TaskLayout, where: str = "site") -> None:
         """Raise a ValueError naming the table that does not fit."""
         if layout.plan is not None:
             raise ValueError(f"{where}: set observations do not take the site planes")
+        if _has_events(layout) and not self.events:
+            raise ValueError(
+                f"{where}: the site has site events (events=...) but the set policy's limits "
+                "have no event columns (delivered, available): train it with events (multicrane "
+                "train --events LEVEL) or play it on a site without events (--events omitted on "
+                "a scenario without an [events] table)"
+            )
         for name, have, limit in (
             ("components", layout.n_components, self.components),
             ("cranes", layout.n_cranes, self.cranes),
@@ -74,12 +94,19 @@ class SetLimits:
 
     @property
     def comp_width(self) -> int:
-        return N_COMP + self.cranes
+        return N_COMP + self.cranes + self.events
+
+    @property
+    def crane_width(self) -> int:
+        return N_CRANE + self.events
 
     @property
     def size(self) -> int:
         return (
-            HEADER + self.components * self.comp_width + self.cranes * N_CRANE + self.tasks * N_TASK
+            HEADER
+            + self.components * self.comp_width
+            + self.cranes * self.crane_width
+            + self.tasks * N_TASK
         )
 
     @property
@@ -91,7 +118,7 @@ class SetLimits:
         out, at = {}, HEADER
         for name, shape in (
             ("components", (self.components, self.comp_width)),
-            ("cranes", (self.cranes, N_CRANE)),
+            ("cranes", (self.cranes, self.crane_width)),
             ("tasks", (self.tasks, N_TASK)),
         ):
             n = shape[0] * shape[1]
@@ -100,11 +127,21 @@ class SetLimits:
         return out
 
     def to_dict(self) -> dict[str, int]:
-        return {"components": self.components, "cranes": self.cranes, "tasks": self.tasks}
+        """The sizes (and ``events: True`` only when on, so limits without events keep the
+        dict of older runs)."""
+        out = {"components": self.components, "cranes": self.cranes, "tasks": self.tasks}
+        if self.events:
+            out["events"] = True
+        return out
+
+
+def _has_events(layout) -> bool:
+    return getattr(layout, "events", None) is not None
 
 
 def union(layouts) -> SetLimits:
-    """The smallest limits that fit every one of ``layouts``."""
+    """The smallest limits that fit every one of ``layouts`` (with event columns if any has
+    them)."""
     layouts = list(layouts)
     if not layouts:
         raise ValueError("union of no layouts")
@@ -112,6 +149,7 @@ def union(layouts) -> SetLimits:
         max(x.n_components for x in layouts),
         max(x.n_cranes for x in layouts),
         max(x.n_tasks for x in layouts),
+        any(_has_events(x) for x in layouts),
     )
 
 
@@ -122,18 +160,27 @@ class Padder:
         limits.check(layout)
         self.layout, self.limits = layout, limits
         C, N, P = layout.n_components, layout.n_cranes, layout.n_tasks
-        self.exact = SetLimits.of(layout) == limits
+        ev = _has_events(layout)
+        self.exact = SetLimits.of(layout) == limits and not ev  # (events: no closed block)
         # Index map: destination positions of the source vector's entries, built once.
         sl = limits.slices()
-        c0 = sl["components"][0]
-        comp_dst = (
-            c0 + np.arange(C)[:, None] * limits.comp_width + np.arange(N_COMP + N)[None, :]
-        ).ravel()
-        k0 = sl["cranes"][0]
-        crane_dst = k0 + np.arange(N * N_CRANE)
+        c0, cw = sl["components"][0], limits.comp_width
+        rows = c0 + np.arange(C)[:, None] * cw
+        cols = np.arange(N_COMP + N)
+        if ev:  # the delivered column goes last, after the padded reach columns
+            cols = np.append(cols, cw - 1)
+        comp_dst = (rows + cols[None, :]).ravel()
+        k0, kw = sl["cranes"][0], limits.crane_width
+        crane_dst = (k0 + np.arange(N)[:, None] * kw + np.arange(N_CRANE + ev)[None, :]).ravel()
         t0 = sl["tasks"][0]
         task_dst = t0 + np.arange(P * N_TASK)
         self.dst = np.concatenate([comp_dst, crane_dst, task_dst])
+        # A site without events under limits with events: all delivered, all available.
+        self.ones = np.zeros(0, dtype=np.int64)
+        if limits.events and not ev:
+            self.ones = np.concatenate(
+                [rows[:, 0] + cw - 1, k0 + np.arange(N) * kw + kw - 1]
+            ).astype(np.int64)
         self.header = np.array([C, N, P], dtype=np.float32)
 
     def pad(self, obs: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -146,7 +193,8 @@ class Padder:
         if self.exact:
             out[HEADER:] = obs
         else:
-            out[self.dst] = obs
+            out[self.dst] = obs[: len(self.dst)]  # (a closed block after the tasks: left out)
+            out[self.ones] = 1.0
         return out
 
     def pad_mask(self, mask: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:

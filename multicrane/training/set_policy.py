@@ -19,6 +19,9 @@ indices) leaves every task's logit unchanged, permuting tasks permutes the logit
 padding rows change nothing (masked out of the attention, the means and the logits); the
 tests check all three.
 
+With site events (``SetLimits.events``) the component token also reads the ``delivered``
+column and the crane token the ``available`` column (``multicrane.training.set_obs``).
+
 Only allowed (row, task) pairs go through the task MLP: a task that is not allowed gets the
 logit ``-1e8`` whatever the mask, so no illegal task is ever chosen, and a busy crane's row
 (no task allowed) costs the task head nothing. ``SetPolicy`` is MaskablePPO's policy with this
@@ -58,8 +61,9 @@ class SetExtractor(BaseFeaturesExtractor):
             )
         super().__init__(observation_space, limits.n_actions + 2 * dim)
         self.limits, self.dim = limits, dim
-        self.comp_in = _mlp(N_COMP + 2, dim)
-        self.crane_in = _mlp(N_CRANE, dim)
+        ev = int(limits.events)  # the delivered / available columns (site events)
+        self.comp_in = _mlp(N_COMP + 2 + ev, dim)
+        self.crane_in = _mlp(N_CRANE + ev, dim)
         self.kind = nn.Parameter(th.zeros(2, dim))  # component / crane token offsets
         self.heads = heads
         if heads:
@@ -93,11 +97,12 @@ class SetExtractor(BaseFeaturesExtractor):
         k_ok = th.arange(Nm, device=obs.device)[None, :] < counts[:, 1:2]  # (B, N)
         comp, cranes, tasks = t["components"], t["cranes"], t["tasks"]
         me = cranes[:, :, _SELF] * k_ok  # (B, N) one-hot of the observing crane
-        reach = comp[:, :, N_COMP:]  # (B, C, N)
+        reach = comp[:, :, N_COMP : N_COMP + Nm]  # (B, C, N)
         reach_self = (reach * me[:, None, :]).sum(-1, keepdim=True)
         n_cranes = k_ok.sum(-1).clamp(min=1)[:, None, None]
         reach_share = (reach * k_ok[:, None, :]).sum(-1, keepdim=True) / n_cranes
-        hc = self.comp_in(th.cat([comp[:, :, :N_COMP], reach_self, reach_share], -1))
+        extra = comp[:, :, N_COMP + Nm :]  # (B, C, 1) delivered, with events; else empty
+        hc = self.comp_in(th.cat([comp[:, :, :N_COMP], reach_self, reach_share, extra], -1))
         hk = self.crane_in(cranes)
         x = th.cat([hc + self.kind[0], hk + self.kind[1]], 1)  # (B, C + N, d)
         ok = th.cat([c_ok, k_ok], 1)

@@ -46,16 +46,20 @@ def set_hyperparameters(overrides: dict[str, Any]) -> dict[str, Any]:
 
 def limits_of(cfg) -> SetLimits:
     """The padded table sizes of a run: ``set_limits``, the curriculum's, or the scenario's."""
-    if cfg.set_limits is not None:
-        return SetLimits(**cfg.set_limits)
-    if cfg.curriculum is not None:
+    if cfg.curriculum is not None and cfg.set_limits is None:
         from multicrane.training.curriculum import CURRICULA
 
         return CURRICULA[cfg.curriculum].limits
+    if cfg.curriculum is not None:
+        return SetLimits(**cfg.set_limits)
     from multicrane.crane_env import MultiCraneEnv
 
-    env = MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, decisions="task")
-    return SetLimits.of(env.observation_layout)
+    env = MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, decisions="task",
+                        events=cfg.events)  # fmt: skip
+    exact = SetLimits.of(env.observation_layout)  # with event columns if the site has events
+    if cfg.set_limits is not None:
+        return SetLimits(**cfg.set_limits, events=exact.events)
+    return exact
 
 
 class _Blocks:
@@ -89,7 +93,7 @@ def make_set_vec_env(cfg, n_envs: int, gamma: float, workers: int | None = None)
 
     def make(copy: int):
         return MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, max_steps=cfg.max_steps,
-                             decisions="task")  # fmt: skip
+                             decisions="task", events=cfg.events)  # fmt: skip
 
     return SetVecEnv(make, n_envs, limits, cfg.shaping_weight, gamma)
 

@@ -81,7 +81,8 @@ def multi_env(cfg: TrainConfig):
     from multicrane.crane_env import MultiCraneEnv
 
     return MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto,
-                         max_steps=cfg.max_steps, decisions=cfg.decisions)  # fmt: skip
+                         max_steps=cfg.max_steps, decisions=cfg.decisions,
+                         events=cfg.events)  # fmt: skip
 
 
 def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
