@@ -52,6 +52,7 @@ from multicrane.training.set_training import (
     make_set_vec_env,
     set_hyperparameters,
 )
+from multicrane.training.shaping import ShapedPaperEnv
 from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
 
 RESULT = "result.json"
@@ -90,6 +91,11 @@ def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
         return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
     n = cfg.n_envs or algo.n_envs
     if cfg.paper:
+        if cfg.shaping_weight:  # the learner's reward only; Monitor records the paper's
+            w = cfg.shaping_weight
+            return SeededDummyVecEnv(
+                [lambda: ShapedPaperEnv(Monitor(paper_env(cfg, algo)), w, gamma)] * n
+            )
         return SeededDummyVecEnv([lambda: Monitor(paper_env(cfg, algo))] * n)
     return CraneVecEnv(lambda: multi_env(cfg), n, shaping=cfg.shaping_weight, gamma=gamma)
 
