@@ -122,3 +122,15 @@ def test_bad_weights_are_refused():
         ShapedPaperEnv(PaperAssemblyEnv("E1S1"), -0.1, 0.9)
     with pytest.raises(ValueError, match="gamma"):
         ShapedPaperEnv(PaperAssemblyEnv("E1S1"), 1.0, 1.5)
+
+
+def test_a_profile_passes_its_shaping_weight_to_its_runs():
+    from dataclasses import replace
+
+    from multicrane.benchmark.profiles import PROFILES, make_sweep
+
+    profile = replace(PROFILES["smoke"], algos=("dqn", "maskable_ppo"), shaping={"dqn": 2.0})
+    runs = {r.algo: r.train for r in make_sweep(profile).runs() if r.config == "E1S1"}
+    assert TrainConfig(**runs["dqn"]).shaping_weight == 2.0
+    assert TrainConfig(**runs["maskable_ppo"]).shaping_weight == 0.0  # the paper's reward
+    assert make_sweep(profile).to_dict()["shaping"] == {"dqn": 2.0}

@@ -33,8 +33,9 @@ class SweepError(ValueError):
 class Profile:
     """A named budget: which runs, and how long each trains and is evaluated.
 
-    ``hyperparams`` and ``n_envs`` are per algorithm (``TrainConfig.hyperparams`` /
-    ``n_envs``); absent algorithms use the paper's settings.
+    ``hyperparams``, ``n_envs`` and ``shaping`` are per algorithm
+    (``TrainConfig.hyperparams`` / ``n_envs`` / ``shaping``, the weight of the potential-based
+    shaping of the learner's reward); absent algorithms use the paper's settings and reward.
     """
 
     name: str
@@ -49,6 +50,7 @@ class Profile:
     final_episodes: int | None = None  # the final evaluation (default: eval_episodes)
     hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
     n_envs: dict[str, int] = field(default_factory=dict)
+    shaping: dict[str, float] = field(default_factory=dict)
 
 
 # The standard profile's learners: the paper's settings except these (our choice, for speed:
@@ -175,6 +177,7 @@ class Sweep:
     final_episodes: int | None = None
     hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
     n_envs: dict[str, int] = field(default_factory=dict)
+    shaping: dict[str, float] = field(default_factory=dict)
 
     def runs(self) -> list[RunSpec]:
         """Every run, configuration-major, then algorithm, then seed."""
@@ -195,6 +198,7 @@ class Sweep:
                 "seed": seed,
                 "n_envs": self.n_envs.get(algo),
                 "hyperparams": self.hyperparams.get(algo, {}),
+                "shaping": self.shaping.get(algo),
                 "eval_every": self.eval_every,
                 "eval_episodes": self.eval_episodes,
                 "final_episodes": self.final_episodes,
@@ -226,6 +230,7 @@ class Sweep:
             "checkpoint_every": self.checkpoint_every,
             "hyperparams": jsonable(self.hyperparams),
             "n_envs": dict(self.n_envs),
+            "shaping": dict(self.shaping),
         }
 
 
@@ -297,6 +302,7 @@ def make_sweep(
         final_episodes=profile.final_episodes,
         hyperparams={a: dict(h) for a, h in profile.hyperparams.items() if a in chosen_algos},
         n_envs={a: n for a, n in profile.n_envs.items() if a in chosen_algos},
+        shaping={a: w for a, w in profile.shaping.items() if a in chosen_algos},
         **budget,
     )
 
