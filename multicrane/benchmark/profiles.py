@@ -55,7 +55,8 @@ class Profile:
 
 # The standard profile's learners: the paper's settings except these (our choice, for speed:
 # vectorised environment copies, fewer and larger gradient steps, 5-step returns for DQN;
-# docs/benchmark.md).
+# docs/benchmark.md). An optional "shaping" key sets the weight of the shaped training
+# reward (TrainConfig.shaping; none yet: see docs/benchmark.md, third session).
 STANDARD_ALGOS = ("double_dqn", "maskable_ppo")
 STANDARD_STEPS = 150_000
 STANDARD_EVAL_EVERY = 50_000
@@ -118,6 +119,7 @@ PROFILES: dict[str, Profile] = {
             checkpoint_every=0,  # runs of minutes: a checkpoint only when interrupted
             hyperparams={a: s["hyperparams"] for a, s in STANDARD_SETTINGS.items()},
             n_envs={a: s["n_envs"] for a, s in STANDARD_SETTINGS.items()},
+            shaping={a: s["shaping"] for a, s in STANDARD_SETTINGS.items() if "shaping" in s},
             about="under 2 h on 2 cores: all 16 configurations, double DQN and MaskablePPO "
             "with faster settings of ours (docs/benchmark.md), 5 seeds, "
             f"{STANDARD_STEPS:,} steps per run",
