@@ -1,4 +1,4 @@
-"""Potential-based reward shaping for multi-crane training (Ng, Harada & Russell, 1999).
+"""Potential-based shaping of the learner's reward, both modes (Ng, Harada & Russell, 1999).
 
 The team reward pays only on assembly, and random cranes hardly ever carry a component to
 its target before the over-limit cost (-2 per step past 15 moves) sets in; PPO then learns
