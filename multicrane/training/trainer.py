@@ -90,13 +90,10 @@ def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
     if cfg.policy == "set":
         return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
     n = cfg.n_envs or algo.n_envs
-    if cfg.paper:
-        if cfg.shaping_weight:  # the learner's reward only; Monitor records the paper's
-            w = cfg.shaping_weight
-            return SeededDummyVecEnv(
-                [lambda: ShapedPaperEnv(Monitor(paper_env(cfg, algo)), w, gamma)] * n
-            )
-        return SeededDummyVecEnv([lambda: Monitor(paper_env(cfg, algo))] * n)
+    if cfg.paper:  # shaping: the learner's reward only; Monitor records the paper's
+        w = cfg.shaping_weight
+        shape = (lambda e: ShapedPaperEnv(e, w, gamma)) if w else (lambda e: e)
+        return SeededDummyVecEnv([lambda: shape(Monitor(paper_env(cfg, algo)))] * n)
     return CraneVecEnv(lambda: multi_env(cfg), n, shaping=cfg.shaping_weight, gamma=gamma)
 
 
