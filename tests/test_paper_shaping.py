@@ -134,3 +134,19 @@ def test_a_profile_passes_its_shaping_weight_to_its_runs():
     assert TrainConfig(**runs["dqn"]).shaping_weight == 2.0
     assert TrainConfig(**runs["maskable_ppo"]).shaping_weight == 0.0  # the paper's reward
     assert make_sweep(profile).to_dict()["shaping"] == {"dqn": 2.0}
+
+
+def test_a_shaped_run_resumes_exactly(tmp_path):
+    """The wrapper's phi and the potential's caches travel with the checkpointed copies."""
+    import torch as th
+
+    from multicrane.training import load_run, train
+
+    cfg = TrainConfig("E1S1", paper=True, algo="maskable_ppo", total_steps=384, n_envs=2,
+                      hyperparams={"n_steps": 64, "batch_size": 64, "n_epochs": 1},
+                      eval_episodes=1, checkpoint_every=0, shaping=1.0)  # fmt: skip
+    train(cfg, tmp_path / "whole", log=lambda *a: None)
+    assert train(cfg, tmp_path / "cut", stop_at=150, log=lambda *a: None) is None
+    train(cfg, tmp_path / "cut", log=lambda *a: None)
+    a, b = (load_run(tmp_path / d)[0].policy.state_dict() for d in ("whole", "cut"))
+    assert a.keys() == b.keys() and all(th.equal(a[k], b[k]) for k in a)
