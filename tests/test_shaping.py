@@ -94,11 +94,12 @@ def test_shaping_telescopes_over_an_episode(seed):
         assert shaped != pytest.approx(plain)
 
 
-def test_shaping_is_refused_in_paper_mode_and_must_be_non_negative():
+def test_shaping_is_off_by_default_in_paper_mode_and_must_be_non_negative():
     from multicrane.training import ConfigError, TrainConfig
 
     with pytest.raises(ConfigError, match="shaping"):
-        TrainConfig("E1S1", paper=True, shaping=1.0)
+        TrainConfig("E1S1", paper=True, shaping=-1.0)
+    assert TrainConfig("E1S1", paper=True, shaping=0.5).shaping_weight == 0.5
     with pytest.raises(ConfigError, match="shaping"):
         TrainConfig("e1s1", paper=False, shaping=-1.0)
     with pytest.raises(ValueError, match="shaping"):

@@ -33,8 +33,9 @@ class SweepError(ValueError):
 class Profile:
     """A named budget: which runs, and how long each trains and is evaluated.
 
-    ``hyperparams`` and ``n_envs`` are per algorithm (``TrainConfig.hyperparams`` /
-    ``n_envs``); absent algorithms use the paper's settings.
+    ``hyperparams``, ``n_envs`` and ``shaping`` are per algorithm
+    (``TrainConfig.hyperparams`` / ``n_envs`` / ``shaping``, the weight of the potential-based
+    shaping of the learner's reward); absent algorithms use the paper's settings and reward.
     """
 
     name: str
@@ -49,11 +50,13 @@ class Profile:
     final_episodes: int | None = None  # the final evaluation (default: eval_episodes)
     hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
     n_envs: dict[str, int] = field(default_factory=dict)
+    shaping: dict[str, float] = field(default_factory=dict)
 
 
 # The standard profile's learners: the paper's settings except these (our choice, for speed:
 # vectorised environment copies, fewer and larger gradient steps, 5-step returns for DQN;
-# docs/benchmark.md).
+# docs/benchmark.md). An optional "shaping" key sets the weight of the shaped training
+# reward (TrainConfig.shaping; none yet: see docs/benchmark.md, third session).
 STANDARD_ALGOS = ("double_dqn", "maskable_ppo")
 STANDARD_STEPS = 150_000
 STANDARD_EVAL_EVERY = 50_000
@@ -116,6 +119,7 @@ PROFILES: dict[str, Profile] = {
             checkpoint_every=0,  # runs of minutes: a checkpoint only when interrupted
             hyperparams={a: s["hyperparams"] for a, s in STANDARD_SETTINGS.items()},
             n_envs={a: s["n_envs"] for a, s in STANDARD_SETTINGS.items()},
+            shaping={a: s["shaping"] for a, s in STANDARD_SETTINGS.items() if "shaping" in s},
             about="under 2 h on 2 cores: all 16 configurations, double DQN and MaskablePPO "
             "with faster settings of ours (docs/benchmark.md), 5 seeds, "
             f"{STANDARD_STEPS:,} steps per run",
@@ -175,6 +179,7 @@ class Sweep:
     final_episodes: int | None = None
     hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
     n_envs: dict[str, int] = field(default_factory=dict)
+    shaping: dict[str, float] = field(default_factory=dict)
 
     def runs(self) -> list[RunSpec]:
         """Every run, configuration-major, then algorithm, then seed."""
@@ -195,6 +200,7 @@ class Sweep:
                 "seed": seed,
                 "n_envs": self.n_envs.get(algo),
                 "hyperparams": self.hyperparams.get(algo, {}),
+                "shaping": self.shaping.get(algo),
                 "eval_every": self.eval_every,
                 "eval_episodes": self.eval_episodes,
                 "final_episodes": self.final_episodes,
@@ -226,6 +232,7 @@ class Sweep:
             "checkpoint_every": self.checkpoint_every,
             "hyperparams": jsonable(self.hyperparams),
             "n_envs": dict(self.n_envs),
+            "shaping": dict(self.shaping),
         }
 
 
@@ -297,6 +304,7 @@ def make_sweep(
         final_episodes=profile.final_episodes,
         hyperparams={a: dict(h) for a, h in profile.hyperparams.items() if a in chosen_algos},
         n_envs={a: n for a, n in profile.n_envs.items() if a in chosen_algos},
+        shaping={a: w for a, w in profile.shaping.items() if a in chosen_algos},
         **budget,
     )
 

@@ -60,7 +60,8 @@ def register(sub) -> None:
     p.add_argument("--checkpoint-every", type=int, default=50_000)
     p.add_argument("--mask-blocked-moves", choices=("on", "off"), default=None)
     p.add_argument("--shaping", type=float, default=None,
-                   help="multi-agent: weight of the potential-based shaping term (0: off)")
+                   help="weight of the potential-based shaping term of the learner's reward "
+                   "(0: off; default 1 multi-agent, 0 with --paper)")
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     p.add_argument("--policy", choices=("mlp", "set"), default=None,
                    help="multi-agent task mode: 'set' for the set-based shared policy "

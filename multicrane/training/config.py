@@ -36,8 +36,10 @@ class TrainConfig:
     checkpoints (0: only on interruption). ``mask_blocked_moves``: paper mode's mask
     (default: on for ``maskable_ppo`` only). ``auto``/``max_steps``: multi-agent environment
     options; ``decisions``: ``"motion"`` or ``"task"`` (the multi-agent decision level).
-    ``shaping``: weight of the potential-based shaping term of the multi-agent mode
-    (``multicrane.training.shaping``; default ``DEFAULT_SHAPING``; 0 turns it off).
+    ``shaping``: weight of the potential-based shaping term added to the learner's reward
+    (``multicrane.training.shaping``; multi-agent mode: default ``DEFAULT_SHAPING``; paper
+    mode: default 0, the paper's reward; 0 turns it off). Evaluations, returns, curves and
+    success always use the environment's own reward.
     ``torch_threads``: 1 unless you have cores to spare. ``policy``: ``"mlp"`` (SB3's MLP on
     the flat observation) or ``"set"`` (``multicrane.training.set_policy``: MaskablePPO, task
     mode); ``set_limits``: the set policy's padded table sizes (``{"components", "cranes",
@@ -99,11 +101,10 @@ class TrainConfig:
             value = getattr(self, name)
             if value is not None and (not isinstance(value, int) or value < 1):
                 raise ConfigError(f"{name}={value!r}: must be a positive integer or None")
-        if self.shaping is not None:
-            if self.paper and self.shaping:
-                raise ConfigError(f"shaping={self.shaping!r}: paper mode uses the paper's reward")
-            if not isinstance(self.shaping, (int, float)) or self.shaping < 0:
-                raise ConfigError(f"shaping={self.shaping!r}: must be a number >= 0")
+        if self.shaping is not None and (
+            not isinstance(self.shaping, (int, float)) or self.shaping < 0
+        ):
+            raise ConfigError(f"shaping={self.shaping!r}: must be a number >= 0")
         self._check_set_policy()
         self._check_events()
         if not isinstance(self.hyperparams, dict):
@@ -181,7 +182,7 @@ class TrainConfig:
     @property
     def shaping_weight(self) -> float:
         if self.paper:
-            return 0.0
+            return 0.0 if self.shaping is None else float(self.shaping)
         return DEFAULT_SHAPING if self.shaping is None else float(self.shaping)
 
     @property

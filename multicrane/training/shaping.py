@@ -1,4 +1,4 @@
-"""Potential-based reward shaping for multi-crane training (Ng, Harada & Russell, 1999).
+"""Potential-based shaping of the learner's reward, both modes (Ng, Harada & Russell, 1999).
 
 The team reward pays only on assembly, and random cranes hardly ever carry a component to
 its target before the over-limit cost (-2 per step past 15 moves) sets in; PPO then learns
@@ -14,9 +14,15 @@ problem unchanged (the shaping terms telescope). ``phi`` is 0 at the end of an e
 Claiming does not change ``phi`` (a claimed component starts at its pick-up pose). The
 environment's own reward, returns and statistics are untouched: only the reward the
 learner sees changes.
+
+The multi-agent vector environment (``multicrane.training.vec_env.CraneVecEnv``) adds the
+term itself; ``ShapedPaperEnv`` adds it to the single-agent benchmark environment
+(``multicrane.paper_env.PaperAssemblyEnv``), whose simulator has one crane.
 """
 
 from __future__ import annotations
+
+import gymnasium as gym
 
 from multicrane.paths import current_cells, goal_positions
 from multicrane.simulator import NOBODY, Simulator
@@ -112,6 +118,40 @@ class DistancePotential:
                 self._total += new - part[comp]
                 part[comp] = new
         return -float(self._total)
+
+
+class ShapedPaperEnv(gym.Wrapper):
+    """The paper environment with ``w * (gamma * phi(s') - phi(s))`` added to its reward.
+
+    For the learner's copies only: wrap it outside ``Monitor`` so that the episode returns
+    and statistics stay the paper's. ``info["paper_reward"]`` keeps the unshaped reward.
+    ``phi(s')`` is 0 when the episode terminates (every component has arrived; the formula
+    gives 0 then too) and the state's own value at truncation, where the learner bootstraps.
+    """
+
+    def __init__(self, env: gym.Env, weight: float, gamma: float):
+        super().__init__(env)
+        if not weight >= 0:
+            raise ValueError(f"shaping weight must be >= 0, got {weight!r}")
+        if not 0 <= gamma <= 1:
+            raise ValueError(f"shaping gamma must be in [0, 1], got {gamma!r}")
+        self.weight, self.gamma = float(weight), float(gamma)
+        self.potential = DistancePotential(env.unwrapped.sim)
+        self.phi = 0.0  # phi of the current state
+
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        self.potential.reset()
+        self.phi = self.potential()
+        return obs, info
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        phi = 0.0 if terminated else self.potential()
+        info["paper_reward"] = reward
+        shaped = reward + self.weight * (self.gamma * phi - self.phi)
+        self.phi = phi
+        return obs, shaped, terminated, truncated, info
 
 
 def potential_from_scratch(sim: Simulator) -> float:

@@ -52,6 +52,7 @@ from multicrane.training.set_training import (
     make_set_vec_env,
     set_hyperparameters,
 )
+from multicrane.training.shaping import ShapedPaperEnv
 from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
 
 RESULT = "result.json"
@@ -90,8 +91,10 @@ def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
     if cfg.policy == "set":
         return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
     n = cfg.n_envs or algo.n_envs
-    if cfg.paper:
-        return SeededDummyVecEnv([lambda: Monitor(paper_env(cfg, algo))] * n)
+    if cfg.paper:  # shaping: the learner's reward only; Monitor records the paper's
+        w = cfg.shaping_weight
+        shape = (lambda e: ShapedPaperEnv(e, w, gamma)) if w else (lambda e: e)
+        return SeededDummyVecEnv([lambda: shape(Monitor(paper_env(cfg, algo)))] * n)
     return CraneVecEnv(lambda: multi_env(cfg), n, shaping=cfg.shaping_weight, gamma=gamma)
 
 
