@@ -10,8 +10,10 @@ round:
 
 - **Breakdown.** A crane that goes down keeps its component (the simulator's rule); that
   component is *frozen*: its plan is dropped, its cells are held for ever in the reservation
-  table (the others plan around it) and its target is released for other components. The
-  crane takes no new task while down. When it comes back, its component is planned again from
+  table (the others plan around it), and its target stays kept for it (no other component is
+  planned to it: releasing it could leave the frozen component with no target it can reach
+  while it blocks the very component its last target waits for). The crane takes no new
+  task while down. When it comes back, its component is planned again from
   where it is, to any free ready target (``Carrier._plan_transit``).
 - **Closed zone.** Closed cells are obstacles from now on, until they open (their end is not
   known): held for ever by the owner ``CLOSED`` in the table, so a path, a claim's pick-up
@@ -56,6 +58,15 @@ class EventCarrier(Carrier):
         super().reset()
         self._view: EventView | None = None
         self._frozen: set[int] = set()
+        self._kept: dict[int, int] = {}  # frozen component -> the target its dropped plan had
+        self._planning: int | None = None
+
+    def taken_targets(self) -> set[int]:
+        """The targets of every plan, and those kept for frozen components (but not the one
+        kept for the component being planned now)."""
+        taken = super().taken_targets()
+        taken.update(t for c, t in self._kept.items() if c != self._planning)
+        return taken
 
     def crane_up(self, crane: int) -> bool:
         """The crane is available now (always, without events)."""
@@ -83,9 +94,13 @@ class EventCarrier(Carrier):
         new_closed = set(view.closed) - set(old.closed if old else ())
         if new_down or new_closed or self._crossed(delivered, T):
             for comp in frozen:
-                self.plans.pop(comp, None)
+                plan = self.plans.pop(comp, None)
+                if plan is not None:
+                    self._kept[comp] = plan.target
             self._force_replan = True
             self.stats["event_replans"] += 1
+        status = self.sim.state.status
+        self._kept = {c: t for c, t in self._kept.items() if status[c] == _IN_TRANSIT}
         super().begin(T)
         st = self.sim.state
         lenient = bool(view.closed)
@@ -122,6 +137,16 @@ class EventCarrier(Carrier):
     def _plan_transit(self, comp: int, T: int, res: ReservationTable) -> bool:
         if self._view is None:
             return super()._plan_transit(comp, T, res)
+        self._planning = comp
+        try:
+            planned = self._plan_transit_now(comp, T, res)
+        finally:
+            self._planning = None
+        if planned:
+            self._kept.pop(comp, None)
+        return planned
+
+    def _plan_transit_now(self, comp: int, T: int, res: ReservationTable) -> bool:
         sim = self.sim
         rel = shape_of(sim, comp)
         start = sim.state.cells[comp][0]

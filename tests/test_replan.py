@@ -235,6 +235,44 @@ def test_replanning_goes_on_around_a_breakdown_and_a_closed_zone():
     assert around, "crane 1 never crossed the closed row beside the strip"
 
 
+def test_a_frozen_component_keeps_its_target_until_it_is_planned_again():
+    """Crane 0 breaks down carrying a component: while it is frozen, the target of its dropped
+    plan stays taken (no other component is planned to it or fills it), and it is the target
+    the component is planned to once the crane is back. Releasing that target once stalled a
+    task-level episode: another beam took it, and the frozen beam, left with a target that
+    waited on the column it hung over, blocked it until the step limit (docs/uncertainty.md)."""
+    from multicrane.events import EventSchedule, EventSpec, Outage
+    from multicrane.simulator import Simulator
+    from policies.prioritized import PrioritizedPlanner
+
+    scenario = multicrane.load_scenario("e3s2")
+    sim = Simulator(scenario, 2, events=EventSpec())
+    n = sim.site.n_components
+    schedule = EventSchedule(np.zeros(n, dtype=np.int64), [Outage(0, 6, 50)], [])
+    sim.reset(np.random.default_rng(0), schedule=schedule)
+    env = SimpleNamespace(sim=sim, scenario=scenario, possible_agents=["crane_0", "crane_1"],
+                          step_limit=scenario.step_limit, decisions="motion")  # fmt: skip
+    planner = PrioritizedPlanner(env)
+    carrier = planner.carrier
+    rng = np.random.default_rng(0)
+    frozen = kept = None
+    while sim.state.n_assembled < n and sim.state.step_count < scenario.step_limit:
+        t = sim.state.step_count
+        if t == 5:  # the last round before the outage: crane 0's component has a plan
+            frozen = int(sim.state.held[0])
+            kept = carrier.plans[frozen].target
+        masks = sim.action_masks()
+        joint = planner({f"crane_{k}": {"action_mask": masks[k]} for k in range(2)})
+        if 6 <= t < 50:
+            assert frozen in carrier._frozen and kept in carrier.taken_targets()
+            assert all(p.target != kept for c, p in carrier.plans.items() if c != frozen)
+            assert sim.state.filled_by[kept] in (-1, frozen)
+        sim.step([int(joint[f"crane_{k}"]) for k in range(2)], rng.permutation(2).tolist())
+    assert frozen is not None and frozen >= 0
+    assert sim.state.n_assembled == n
+    assert sim.state.filled_by[kept] == frozen
+
+
 # -- every built-in scenario under low and high events --------------------------------------------
 
 
