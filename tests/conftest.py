@@ -3,9 +3,11 @@
 ``SCENARIOS`` (every shipped scenario, read once at import so that test modules can build their
 parametrization from it), ``reach_skip`` (why a scenario cannot run with a crane count under
 crane reach), ``random_masked_actions`` (a uniformly random legal action per agent) and
-``sizes`` (a run's default-suite size and its full size behind the ``long`` marker) are
-imported by the test modules with ``from conftest import ...``; the fixtures below
-hand the same objects to tests that prefer fixtures.
+``sizes`` (a run's default-suite size and its full size behind the ``long`` marker),
+``play_legal`` (play a policy and check every action against its mask) and
+``one_torch_thread`` (a fixture for the training tests) are imported by the test modules
+with ``from conftest import ...``; the fixtures below hand the same objects to tests that
+prefer fixtures.
 
 Tests marked ``long`` (end-to-end runs: training, Ray clusters, sweeps) are skipped unless
 selected with ``-m long``; CI runs them as their own step (``.ci/run``, docs/reliability.md).
@@ -87,3 +89,27 @@ def readable_env(*args, **options):
 def readable_paper_env(*args, **options):
     """``PaperAssemblyEnv`` with the readable ``events``, ``component`` and ``action_mask``."""
     return multicrane.PaperAssemblyEnv(*args, **READABLE, **options)
+
+
+def play_legal(env, policy, seed: int, steps: int, label: str) -> None:
+    """Play ``policy`` on the parallel ``env`` from ``reset(seed)`` for up to ``steps`` steps,
+    asserting that every action it sends is allowed by that agent's mask."""
+    obs, _ = env.reset(seed=seed)
+    for _ in range(steps):
+        if not env.agents:
+            break
+        acts = policy(obs)
+        for agent, action in acts.items():
+            assert obs[agent]["action_mask"][action], f"{label}: illegal action {action}"
+        obs, *_ = env.step(acts)
+
+
+@pytest.fixture(scope="module")
+def one_torch_thread():
+    """One torch thread: on a shared 2-core machine two threads make SB3 many times slower."""
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(previous)

@@ -13,6 +13,7 @@ import json
 
 import numpy as np
 import pytest
+from conftest import play_legal
 
 import multicrane
 from multicrane.cli import build_parser, main
@@ -185,14 +186,7 @@ def test_set_policy_with_events_plays_legally_and_on_a_static_site(events_run):
         env = multicrane.parallel_env("e2s2", n_cranes=2, decisions="task", events=events)
         policy = SetModelPolicy(model, env, deterministic=False)
         for seed in range(2):
-            obs, _ = env.reset(seed=seed)
-            for _ in range(40):
-                if not env.agents:
-                    break
-                acts = policy(obs)
-                for a, x in acts.items():
-                    assert obs[a]["action_mask"][x], f"events={events}: illegal task {x}"
-                obs, *_ = env.step(acts)
+            play_legal(env, policy, seed=seed, steps=40, label=f"events={events}")
 
 
 def test_set_padding_carries_delivered_and_available():

@@ -14,6 +14,7 @@ pytest.importorskip("stable_baselines3")
 pytest.importorskip("sb3_contrib")
 
 import torch as th  # noqa: E402
+from conftest import play_legal  # noqa: E402
 from gymnasium import spaces  # noqa: E402
 from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
@@ -31,12 +32,7 @@ from multicrane.training.set_vec_env import SetVecEnv  # noqa: E402
 SITES = (("e2s2", 2), ("frame2-3c", 3), ("hall-4c", 4))  # three sizes
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _one_torch_thread():
-    previous = th.get_num_threads()
-    th.set_num_threads(1)
-    yield
-    th.set_num_threads(previous)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def task_env(name: str, cranes: int) -> MultiCraneEnv:
@@ -203,14 +199,7 @@ def test_one_network_plays_three_site_sizes_legally(heads):
     model, _ = _model(limits, heads=heads)
     for env in envs:
         policy = SetModelPolicy(model, env, deterministic=False)
-        obs, _ = env.reset(seed=3)
-        for _ in range(25):
-            if not env.agents:
-                break
-            acts = policy(obs)
-            for a, x in acts.items():
-                assert obs[a]["action_mask"][x], f"{env.scenario.name}: illegal action {x}"
-            obs, *_ = env.step(acts)
+        play_legal(env, policy, seed=3, steps=25, label=env.scenario.name)
 
 
 # -- the vector environment ----------------------------------------------------------------------

@@ -55,13 +55,7 @@ from multicrane.training.vec_env import SeededDummyVecEnv  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _one_torch_thread():
-    """One torch thread: on a shared 2-core machine two threads make SB3 many times slower."""
-    previous = th.get_num_threads()
-    th.set_num_threads(1)
-    yield
-    th.set_num_threads(previous)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def quiet(*_args, **_kwargs) -> None:
