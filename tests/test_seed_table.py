@@ -47,6 +47,19 @@ def test_run_directories_of_one_prefix_pool_into_one_learned_entry():
     assert (hall.finished, hall.episodes, hall.seeds_all_finished) == (5, 6, 1)
 
 
+def test_evaluate_labels_of_run_directories_pool_by_algorithm_and_prefix():
+    rows = [
+        _row("maskable_ppo (hall-s0)", [100, 110, 120]),
+        _row("maskable_ppo (hall-s1)", [90, 100, 110]),
+        _row("maskable_ppo (other)", [1, 2, 3]),
+    ]
+    pooled, single = entries(rows)
+    assert pooled.name == "maskable_ppo (hall)" and pooled.learned and len(pooled.seeds) == 2
+    assert pooled.samples == [110.0, 100.0]
+    assert single.name == "maskable_ppo (other)" and single.learned
+    assert single.samples == [1.0, 2.0, 3.0]  # one training seed: the interval is over episodes
+
+
 def test_a_planner_row_is_over_its_episodes():
     planner = entries(ROWS)[1]
     assert not planner.learned

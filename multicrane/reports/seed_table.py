@@ -1,11 +1,12 @@
 """Learned policies over training seeds beside planners and the bound, on the same episodes.
 
 Input: the rows ``multicrane evaluate --json`` writes (per policy: its name, summary and
-episodes; every policy plays the same reset seeds). Run directories named ``PREFIX-sN`` (one
-training seed each) are pooled into one learned entry ``PREFIX``: each seed's mean makespan
-over its finished episodes, then the mean over seeds with the Student-t 95 % interval over
-seeds (``multicrane.stats.ci95``: seeds, not episodes, are the independent samples). A
-planner's row is the mean over its episodes, with the interval over episodes. Beside them:
+episodes; every policy plays the same reset seeds; a run directory is labelled ``ALGO (DIR)``).
+Run directories named ``PREFIX-sN`` (one training seed each) are pooled into one learned entry
+``ALGO (PREFIX)``: each seed's mean makespan over its finished episodes, then the mean over
+seeds with the Student-t 95 % interval over seeds (``multicrane.stats.ci95``: seeds, not
+episodes, are the independent samples). A planner's row, and a learned entry of one seed, is
+the mean over its episodes, with the interval over episodes. Beside them:
 how many seeds finished every episode, the share of (seed, episode) pairs where the learned
 policy is shorter than the baseline planner on the same reset seed, and, when per-episode
 lower bounds are given, each row's gap to the mean bound.
@@ -21,6 +22,7 @@ from dataclasses import dataclass, field
 from multicrane.stats import ci95
 
 _SEED_SUFFIX = re.compile(r"^(?P<prefix>.+)-s(?P<seed>\d+)$")
+_RUN_LABEL = re.compile(r"^(?P<algo>[^()]+) \((?P<run>[^()]+)\)$")  # evaluate's "ALGO (DIR)"
 
 
 @dataclass
@@ -55,8 +57,9 @@ class Entry:
 
     @property
     def samples(self) -> list[float]:
-        """What the mean and interval are over: seeds (learned) or episodes (a planner)."""
-        if self.learned:
+        """What the mean and interval are over: training seeds (a learned entry of several)
+        or episodes (a planner, or one training seed)."""
+        if self.learned and len(self.seeds) > 1:
             return [m for m in self.per_seed if m is not None]
         return [float(m) for m in self.makespans[0] if m is not None]
 
@@ -85,10 +88,13 @@ def entries(rows: Sequence[Mapping]) -> list[Entry]:
             raise ValueError(f"policy {name!r} played reset seeds {these[:3]}..., "
                              f"the first policy {seeds[:3]}...: not the same episodes")  # fmt: skip
         spans = [e["makespan"] if e["success"] else None for e in eps]
-        stem = name.rstrip("/").split("/")[-1]
+        label = _RUN_LABEL.match(name)
+        stem = label["run"] if label else name.rstrip("/").split("/")[-1]
         match = _SEED_SUFFIX.match(stem)
         key = match["prefix"] if match else name
-        entry = out.setdefault(key, Entry(key, learned=bool(match)))
+        if label and match:
+            key = f"{label['algo']} ({key})"
+        entry = out.setdefault(key, Entry(key, learned=bool(match or label)))
         entry.seeds.append(name)
         entry.makespans.append(spans)
     return list(out.values())
