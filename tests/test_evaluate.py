@@ -97,22 +97,22 @@ def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
 
 
 @pytest.mark.long
-def test_demo_trains_evaluates_and_records(tmp_path, capsys):
+@pytest.mark.parametrize("decisions, kind", [("task", "set"), ("motion", "maskable_ppo")])
+def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
     pytest.importorskip("rerun")
-    code = main(
-        ["demo", "--scenario", "e1s1", "--cranes", "2", "--steps", "512", "--episodes", "2",
-         "--out", str(tmp_path)]
-    )  # fmt: skip
-    assert code == 0
+    argv = ["demo", "--scenario", "e1s1", "--cranes", "2", "--decisions", decisions, "--steps",
+            "512", "--episodes", "2", "--bound-time", "2", "--out", str(tmp_path)]  # fmt: skip
+    assert main(argv) == 0
     out = capsys.readouterr().out
-    run_dir = tmp_path / "e1s1-2c-maskable_ppo-s0"
-    for name in ("model.zip", "result.json", "evaluation.json", "replay.rrd", "episode.json.gz"):
+    run_dir = tmp_path / f"e1s1-2c-{kind}-s0"
+    for name in ("model.zip", "result.json", "evaluation.json", "evaluation.md", "replay.rrd",
+                 "episode.json.gz"):  # fmt: skip
         assert (run_dir / name).is_file(), name
     policies = [r["policy"] for r in json.loads((run_dir / "evaluation.json").read_text())]
     assert policies[1:] == ["prioritized", "greedy", "random"]
+    assert "gap to bound" in (run_dir / "evaluation.md").read_text()
     assert "replay:" in out
     # Again: the finished training is reused, not repeated.
     mtime = (run_dir / "model.zip").stat().st_mtime_ns
-    assert main(["demo", "--scenario", "e1s1", "--cranes", "2", "--steps", "512",
-                      "--episodes", "2", "--out", str(tmp_path)]) == 0  # fmt: skip
+    assert main(argv) == 0
     assert (run_dir / "model.zip").stat().st_mtime_ns == mtime

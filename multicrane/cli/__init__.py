@@ -31,6 +31,7 @@ COMMANDS = (
     "bound",
     "bench",
     "marl_bench",
+    "seed_table",
     "benchmark",
     "paper_table",
     "compare_planners",

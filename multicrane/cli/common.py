@@ -90,6 +90,29 @@ def run_events(level: str | None, factories) -> str | None:
     return found.pop() if found else None
 
 
+def add_decisions_arg(p: argparse.ArgumentParser) -> None:
+    """``--decisions LEVEL`` for commands that play run directories: default, their own."""
+    p.add_argument("--decisions", choices=("motion", "task"), default=None,
+                   help="multi-agent decision level: motion (every move) or task (which "
+                   "component to which target); default: a run directory policy's training "
+                   "level, else motion")  # fmt: skip
+
+
+def run_decisions(level: str | None, factories) -> str:
+    """The decision level to play: ``level`` if given, else the one the training runs among
+    ``factories`` were trained at (a set policy reads task-level observations only), else
+    ``"motion"``."""
+    if level is not None:
+        return level
+    found = {getattr(f.config, "decisions", "motion") for f in factories if f.config is not None}
+    if len(found) > 1:
+        raise ValueError(
+            "the run directories were trained at different decision levels "
+            f"({', '.join(sorted(found))}): give --decisions LEVEL"
+        )
+    return found.pop() if found else "motion"
+
+
 def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **options):
     """The paper-mode Gymnasium env for ``paper`` (with the blocked-move mask, which changes no
     dynamics: masked models need it, the others ignore it), else the multi-agent env."""

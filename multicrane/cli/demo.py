@@ -7,17 +7,21 @@ from pathlib import Path
 
 from multicrane.cli.common import formatter
 
-DESCRIPTION = """The main job (bash tools/demo.sh runs it): train parameter-sharing PPO for
-the cranes of a scenario, compare it with the planners, and save a replay. Needs the 'train'
-and 'replay' extras.
+DESCRIPTION = """The main job (bash tools/demo.sh runs it): train one policy shared by every
+crane of a site, compare it with the planners and the proven lower bound, and save a replay.
+Needs the 'train' and 'replay' extras.
 
-    multicrane demo                                   # the defaults below, ~10 minutes
-    multicrane demo --scenario e1s1 --cranes 2 --steps 400000
+    multicrane demo                                   # hall-4c, 4 cranes, ~12 minutes
+    multicrane demo --scenario frame2-3c --steps 400000
+    multicrane demo --decisions motion --scenario e2s2 --cranes 2 --steps 1000000
 
 1. multicrane train: MaskablePPO with one policy shared by every crane, for a short budget
-   (resumes or reuses a finished run in --out).
+   (resumes or reuses a finished run in --out). Task decisions (the default): the set policy
+   (docs/training.md), which reads the site's components and cranes as sets; --decisions
+   motion: today's MLP deciding every move.
 2. multicrane evaluate: the trained policy beside the prioritized planner, greedy and random
-   cranes, on the same episodes.
+   cranes, on the same episodes; then multicrane seed-table: the same as one table, with the
+   proven makespan lower bound of every episode (CP-SAT, --bound-time seconds each; 0: none).
 3. multicrane replay record: one episode of the trained policy as a rerun replay (.rrd, open
    it with rerun FILE) and an episode record (.json.gz).
 """
@@ -26,12 +30,16 @@ and 'replay' extras.
 def register(sub) -> None:
     p = sub.add_parser("demo", help="the main job: train, compare, replay",
                        description=DESCRIPTION, **formatter())  # fmt: skip
-    p.add_argument("--scenario", default="e2s2")
-    p.add_argument("--cranes", type=int, default=2)
-    p.add_argument("--steps", type=int, default=1_000_000, help="crane decisions")
+    p.add_argument("--scenario", default="hall-4c")
+    p.add_argument("--cranes", type=int, default=4)
+    p.add_argument("--decisions", default="task", choices=("task", "motion"),
+                   help="task: the set policy picks tasks; motion: an MLP picks moves")  # fmt: skip
+    p.add_argument("--steps", type=int, default=300_000, help="crane decisions")
     p.add_argument("--algo", default="maskable_ppo", choices=("ppo", "maskable_ppo"))
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes")
+    p.add_argument("--bound-time", type=float, default=5.0,
+                   help="CP-SAT seconds per episode's lower bound (0: no bound)")  # fmt: skip
     p.add_argument("--out", type=Path, default=Path("runs/demo"))
     p.set_defaults(func=run)
 
@@ -39,19 +47,34 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from multicrane.cli import main
 
-    run_dir = args.out / f"{args.scenario}-{args.cranes}c-{args.algo}-s{args.seed}"
+    task = args.decisions == "task"
+    kind = "set" if task else args.algo
+    run_dir = args.out / f"{args.scenario}-{args.cranes}c-{kind}-s{args.seed}"
     where = ["--scenario", args.scenario, "--cranes", str(args.cranes)]
-    print(f"== 1. train {args.algo} (shared by {args.cranes} cranes) on {args.scenario}")
+    level = ["--decisions", args.decisions]
+    what = "the set policy, task decisions" if task else f"{args.algo}, motion decisions"
+    print(f"== 1. train {what} (one policy shared by {args.cranes} cranes) on {args.scenario}")
     code = main(
-        ["train", *where, "--algo", args.algo, "--steps", str(args.steps), "--seed",
-         str(args.seed), "--eval-every", str(max(args.steps // 10, 1)), "--out", str(run_dir)]
+        ["train", *where, *level, *(["--policy", "set"] if task else []), "--algo", args.algo,
+         "--steps", str(args.steps), "--seed", str(args.seed),
+         "--eval-every", str(max(args.steps // 10, 1)), "--out", str(run_dir)]
     )  # fmt: skip
     if code:
         return code
     print(f"\n== 2. evaluate ({args.episodes} episodes, the same seeds for every policy)")
     code = main(
-        ["evaluate", *where, "--policy", str(run_dir), "prioritized", "greedy", "random",
-         "--episodes", str(args.episodes), "--json", str(run_dir / "evaluation.json")]
+        ["evaluate", *where, *level, "--policy", str(run_dir), "prioritized", "greedy",
+         "random", "--episodes", str(args.episodes), "--json", str(run_dir / "evaluation.json")]
+    )  # fmt: skip
+    if code:
+        return code
+    print(
+        "\n== the same episodes as one table"
+        + (", with the lower bound" if args.bound_time > 0 else "")
+    )
+    code = main(
+        ["seed-table", str(run_dir / "evaluation.json"), "--bound-time", str(args.bound_time),
+         "--out", str(run_dir / "evaluation.md")]
     )  # fmt: skip
     if code:
         return code

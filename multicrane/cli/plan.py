@@ -7,12 +7,14 @@ from pathlib import Path
 
 from multicrane.cli import progress
 from multicrane.cli.common import (
+    add_decisions_arg,
     add_events_arg,
     counting,
     describe,
     error,
     formatter,
     make_env,
+    run_decisions,
     run_events,
 )
 
@@ -53,6 +55,7 @@ def register(sub) -> None:
         default=["prioritized"],
         help="prioritized, greedy, random, optimal (paper), or a run directory",
     )
+    add_decisions_arg(p)
     p.add_argument("--episodes", type=int, default=1)
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--auto", action="store_true", help="automatic claiming and assembly")
@@ -126,6 +129,9 @@ def run(args: argparse.Namespace) -> int:
         makers = [policies.factory(name, paper=args.paper) for name in args.policy]
         if not args.paper:
             args.events = run_events(args.events, makers)
+            args.decisions = run_decisions(args.decisions, makers)
+        elif args.decisions == "task":
+            return error("--decisions task is a multi-agent option (not with --paper)")
         if is_set_ref(args.scenario) and not args.paper:
             if args.record or args.rrd or args.render:
                 return error("--record, --rrd and --render take one scenario, not a set")
@@ -135,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             options = {} if args.max_steps is None else {"max_steps": args.max_steps}
             env = make_env(None, args.scenario, args.cranes, args.auto, render_mode="ansi",
-                           events=args.events, **options)  # fmt: skip
+                           events=args.events, decisions=args.decisions, **options)  # fmt: skip
         multi = not args.paper
         seeds = list(range(args.seed, args.seed + args.episodes))
         print(describe(env))

@@ -9,7 +9,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from multicrane.cli.common import error, formatter
+from multicrane.cli.common import add_decisions_arg, error, formatter, run_decisions
 
 DESCRIPTION = """3D replays of episodes with rerun (needs the 'replay' extra: rerun-sdk 0.41).
 
@@ -39,6 +39,7 @@ def _episode_args(p: argparse.ArgumentParser, policy: str = "prioritized") -> No
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--auto", action="store_true", help="automatic mode (random/greedy only)")
     p.add_argument("--max-steps", type=int, default=None, help="default: the scenario's limit")
+    add_decisions_arg(p)
 
 
 def _viewer_args(p: argparse.ArgumentParser) -> None:
@@ -98,15 +99,25 @@ def _make_env(args: argparse.Namespace):
     import multicrane
 
     max_steps = getattr(args, "steps", None) or args.max_steps
+    decisions = run_decisions(args.decisions, [_factory(args, args.policy)])
     return multicrane.parallel_env(
-        args.scenario, n_cranes=args.cranes, auto=args.auto, max_steps=max_steps
-    )
+        args.scenario, n_cranes=args.cranes, auto=args.auto, max_steps=max_steps,
+        decisions=decisions,
+    )  # fmt: skip
 
 
-def _make_policy(spec: str, env, seed: int):
+def _factory(args: argparse.Namespace, spec: str):
+    """``policies.factory(spec)``, made once per command (a run directory's model loads once)."""
     import policies
 
-    return policies.make(spec, env, seed=seed)
+    made = args.__dict__.setdefault("_factories", {})
+    if spec not in made:
+        made[spec] = policies.factory(spec, paper=False)
+    return made[spec]
+
+
+def _make_policy(args: argparse.Namespace, spec: str, env, seed: int):
+    return _factory(args, spec)(env, seed)
 
 
 def _stream(args: argparse.Namespace, name: str, scenario):
@@ -139,7 +150,7 @@ def cmd_live(args: argparse.Namespace) -> int:
         args.spawn = True
     env = _make_env(args)
     rec = _stream(args, f"{env.scenario.name} live", env.scenario)
-    policy = _make_policy(args.policy, env, args.seed)
+    policy = _make_policy(args, args.policy, env, args.seed)
     record = viewer.run_live(env, policy, args.seed, rec, policy_name=args.policy)
     rec.flush()
     print(_summary(record))
@@ -156,7 +167,7 @@ def cmd_record(args: argparse.Namespace) -> int:
     if not (args.rrd or args.record):
         return error("give --rrd and/or --record")
     env = _make_env(args)
-    policy = _make_policy(args.policy, env, args.seed)
+    policy = _make_policy(args, args.policy, env, args.seed)
     if args.rrd:
         from multicrane import viewer
 
@@ -206,20 +217,22 @@ def bench(
     """Time ``repeats`` episodes of at most ``steps`` steps without and with recording to an
     .rrd file (collecting as it runs, then ``send_columns``) plus the episode record."""
     import multicrane
+    import policies
     from multicrane import viewer
     from multicrane.record import record_episode
 
     env = multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, max_steps=steps)
+    make_policy = policies.factory(policy, paper=False)
     plain, recorded, n_steps = [], [], 0
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(repeats):
             t0 = time.perf_counter()
-            rec = record_episode(env, _make_policy(policy, env, seed + i), seed + i, policy)
+            rec = record_episode(env, make_policy(env, seed + i), seed + i, policy)
             plain.append(time.perf_counter() - t0)
             n_steps = rec.steps
             t0 = time.perf_counter()
             rec2 = viewer.record_and_save(
-                env, _make_policy(policy, env, seed + i), seed + i, Path(tmp) / "e.rrd", policy
+                env, make_policy(env, seed + i), seed + i, Path(tmp) / "e.rrd", policy
             )
             rec2.save(Path(tmp) / "e.json.gz")
             recorded.append(time.perf_counter() - t0)

@@ -18,6 +18,8 @@ def run_set(args: argparse.Namespace, makers: list, header: str, line) -> int:
     options = {} if args.max_steps is None else {"max_steps": args.max_steps}
     if getattr(args, "events", None) is not None:  # multicrane plan --events
         options["events"] = args.events
+    if getattr(args, "decisions", None) is not None:  # multicrane plan --decisions
+        options["decisions"] = args.decisions
     totals: dict[str, list[dict]] = {m.label: [] for m in makers}
     print(f"scenario set {args.scenario[len('set:') :]}: {len(sites)} sites")
     print(f"{'site':<28} " + header)
