@@ -1,11 +1,13 @@
-"""Plot a training run's learning curve (makespan of the evaluation episodes) as a PNG.
+"""Plot training runs' learning curves (makespan of the evaluation episodes) as a PNG.
 
-    python tools/marl_curve.py RUN_DIR OUT.png [--line LABEL=VALUE ...]
+    python tools/marl_curve.py RUN_DIR [RUN_DIR ...] OUT.png [--line LABEL=VALUE ...]
 
-Reads RUN_DIR/result.json (or, for a run still going, its checkpoint's progress) and draws
+Reads each RUN_DIR/result.json (or, for a run still going, its checkpoint's progress) and draws
 the mean makespan of the greedy evaluation episodes against crane decisions trained, with
-horizontal reference lines (e.g. the prioritized planner and the lower bound). Needs
-matplotlib (the ``bench`` extra).
+horizontal reference lines (e.g. the prioritized planner and the lower bound). With several
+runs (training seeds of one setting, evaluated at the same points) each is a thin line and
+their mean a thick one, with the Student-t 95 % interval over seeds as a band
+(``multicrane.stats.ci95``). Needs matplotlib (the ``bench`` extra).
 """
 
 from __future__ import annotations
@@ -26,8 +28,7 @@ def curve(run_dir: Path) -> list[dict]:
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("run_dir", type=Path)
-    p.add_argument("out", type=Path)
+    p.add_argument("paths", type=Path, nargs="+", metavar="RUN_DIR ... OUT.png")
     p.add_argument("--line", action="append", default=[], metavar="LABEL=VALUE")
     p.add_argument("--title", default=None)
     args = p.parse_args()
@@ -36,21 +37,41 @@ def main() -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    points = curve(args.run_dir)
+    *runs, out = args.paths
+    if not runs:
+        p.error("give at least one RUN_DIR and the OUT.png")
+    curves = [curve(r) for r in runs]
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
-    ax.plot([q["step"] for q in points], [q["steps_mean"] for q in points], marker="o",
-            label="set policy (greedy evaluation)")  # fmt: skip
+    if len(curves) == 1:
+        points = curves[0]
+        ax.plot([q["step"] for q in points], [q["steps_mean"] for q in points], marker="o",
+                label="set policy (greedy evaluation)")  # fmt: skip
+    else:
+        from multicrane.stats import ci95
+
+        n = min(len(c) for c in curves)  # the points every run reached
+        steps = [q["step"] for q in curves[0][:n]]
+        for c in curves:
+            ax.plot(steps, [q["steps_mean"] for q in c[:n]], color="C0", alpha=0.3, linewidth=1)
+        columns = [[c[i]["steps_mean"] for c in curves] for i in range(n)]
+        mean = [sum(col) / len(col) for col in columns]
+        band = [ci95(col) for col in columns]
+        ax.plot(steps, mean, color="C0", marker="o", linewidth=2,
+                label=f"set policy, mean of {len(curves)} seeds (greedy evaluation)")  # fmt: skip
+        ax.fill_between(steps, [b[0] for b in band], [b[1] for b in band], color="C0",
+                        alpha=0.15, label="95 % interval over seeds")  # fmt: skip
+        points = curves[0][:n]
     for i, item in enumerate(args.line):
         label, _, value = item.partition("=")
         ax.axhline(float(value), linestyle="--", linewidth=1, color=f"C{i + 1}",
                    label=f"{label} ({value})")  # fmt: skip
     ax.set_xlabel("crane decisions trained (rows)")
     ax.set_ylabel("mean makespan (simulated steps)")
-    ax.set_title(args.title or args.run_dir.name)
-    ax.legend()
+    ax.set_title(args.title or runs[0].name)
+    ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(args.out, dpi=110)
-    print(f"wrote {args.out} ({len(points)} points)")
+    fig.savefig(out, dpi=110)
+    print(f"wrote {out} ({len(curves)} run(s), {len(points)} points)")
     return 0
 
 
