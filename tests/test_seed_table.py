@@ -134,3 +134,24 @@ def test_bad_files_get_a_clear_error(tmp_path, capsys, text, message):
 def test_a_missing_file_is_named(tmp_path, capsys):
     assert main(["seed-table", str(tmp_path / "nope.json")]) != 0
     assert "nope.json" in capsys.readouterr().err
+
+
+def test_command_bounds_the_sites_of_a_scenario_set(tmp_path, capsys):
+    from multicrane.scenario_sets import resolve_set
+
+    sites = [(name.split("/")[-1], s.cranes) for name, s in resolve_set("set:train:0-2")]
+    rows = [
+        {"policy": policy, "summary": {}, "episodes": [
+            {"scenario": n, "n_cranes": c, "seed": 7, "success": True, "makespan": m}
+            for (n, c), m in zip(sites, spans, strict=True)]}
+        for policy, spans in (("prioritized", [300, 300]), ("r-s0", [310, 290]))
+    ]  # fmt: skip
+    path = tmp_path / "ev.json"
+    path.write_text(json.dumps(rows))
+    out = tmp_path / "t.md"
+    argv = ["seed-table", str(path), "--sites", "set:train:0-2", "--bound-time", "2",
+            "--out", str(out)]  # fmt: skip
+    assert main(argv) == 0
+    assert "set:train:0-2: 2 episodes on 2 sites" in capsys.readouterr().out
+    assert len(json.loads(out.with_suffix(".bounds.json").read_text())["bounds"]) == 2
+    assert "1/2" in out.read_text()  # shorter than the planner on one site of two

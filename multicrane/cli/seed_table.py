@@ -19,6 +19,9 @@ episode (multicrane bound, CP-SAT) with each row's gap to its mean.
     multicrane evaluate --scenario hall-4c --cranes 4 --decisions task --episodes 50 \\
         --policy runs/hall-s0 runs/hall-s1 runs/hall-s2 prioritized greedy --json ev.json
     multicrane seed-table ev.json --out table.md
+    multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \
+        --policy runs/hall-s0 prioritized --json small.json
+    multicrane seed-table small.json --sites set:test-small   # bounds of the set's sites
 """
 
 
@@ -29,19 +32,28 @@ def register(sub) -> None:
     p.add_argument("--baseline", default="prioritized", help="the planner compared against")
     p.add_argument("--bound-time", type=float, default=10.0,
                    help="CP-SAT seconds per episode's bound (0: no bound)")  # fmt: skip
+    p.add_argument("--sites", default=None, metavar="set:NAME",
+                   help="the scenario set the episodes were played on (to bound them)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None,
                    help="write the markdown table, and the bounds as OUT.bounds.json")  # fmt: skip
     p.set_defaults(func=run)
 
 
-def episode_bounds(rows, time_limit: float) -> list[int]:
-    """The proven makespan lower bound of every episode the rows played (one CP-SAT worker)."""
+def episode_bounds(rows, time_limit: float, sites: str | None = None) -> list[int]:
+    """The proven makespan lower bound of every episode the rows played (one CP-SAT worker);
+    ``sites``: the ``set:NAME`` whose members the episodes' scenario names are."""
     from multicrane.bound import lower_bound
 
+    named = {}
+    if sites is not None:
+        from multicrane.scenario_sets import resolve_set
+
+        named = {name.split("/")[-1]: scenario for name, scenario in resolve_set(sites)}
     return [
-        lower_bound(e["scenario"], e["n_cranes"], e["seed"], time_limit, workers=1).value
+        lower_bound(named.get(e["scenario"], e["scenario"]), e["n_cranes"], e["seed"],
+                    time_limit, workers=1).value
         for e in rows[0]["episodes"]
-    ]
+    ]  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:
@@ -64,13 +76,17 @@ def run(args: argparse.Namespace) -> int:
     bounds = None
     if args.bound_time > 0:
         try:
-            bounds = episode_bounds(rows, args.bound_time)
+            bounds = episode_bounds(rows, args.bound_time, args.sites)
         except (multicrane.ScenarioError, ValueError) as exc:
             return error(f"{args.results}: cannot bound its episodes: {exc}")
     table = markdown_table(table_entries, args.baseline, bounds)
     first = rows[0]["episodes"]
-    print(f"{first[0]['scenario']}, {first[0]['n_cranes']} cranes, {len(first)} episodes "
-          f"(reset seeds {first[0]['seed']}..{first[-1]['seed']})")  # fmt: skip
+    names = sorted({e["scenario"] for e in first})
+    if len(names) == 1:
+        print(f"{names[0]}, {first[0]['n_cranes']} cranes, {len(first)} episodes "
+              f"(reset seeds {first[0]['seed']}..{first[-1]['seed']})")  # fmt: skip
+    else:
+        print(f"{args.sites or 'several scenarios'}: {len(first)} episodes on {len(names)} sites")
     print(table)
     if args.out is not None:
         args.out.write_text(table + "\n")
