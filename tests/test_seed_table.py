@@ -7,7 +7,7 @@ import json
 import pytest
 
 from multicrane.cli import main
-from multicrane.reports.seed_table import entries, markdown_table, shorter_share
+from multicrane.reports.seed_table import entries, episode_ratio, markdown_table, shorter_share
 from multicrane.stats import ci95
 
 
@@ -81,6 +81,13 @@ def test_shorter_share_counts_pairs_where_both_finished(learned, base, expected)
     assert shorter_share(learned_entry, planner) == expected
 
 
+def test_episode_ratio_weighs_every_episode_alike():
+    small_and_big = [_row("x-s0", [20, 200], seeds=(1, 2)), _row("p", [10, 400], seeds=(1, 2))]
+    learned, planner = entries(small_and_big)
+    assert episode_ratio(learned, planner) == pytest.approx((2.0 + 0.5) / 2)
+    assert learned.mean / planner.mean == pytest.approx(220 / 410)  # the big site dominates
+
+
 def test_rows_of_different_episodes_are_refused():
     rows = [_row("a", [1, 2, 3]), _row("b", [1, 2, 3], seeds=(10, 11, 13))]
     with pytest.raises(ValueError, match="not the same episodes"):
@@ -93,7 +100,8 @@ def test_markdown_table_has_the_ratio_the_share_and_the_gap_to_the_bound():
     assert lines[0].startswith("| policy |") and "gap to bound (80.0)" in lines[0]
     hall = lines[2]
     assert "hall (2 seeds)" in hall and "5/6" in hall and "1/2" in hall
-    assert "110.0, 95.0" in hall and "1.025" in hall and "1/5 (1 equal)" in hall
+    ratio = (100 / 95 + 110 / 105 + 120 / 100 + 90 / 95 + 100 / 100) / 5
+    assert "110.0, 95.0" in hall and f"1.025 ({ratio:.3f})" in hall and "1/5 (1 equal)" in hall
     assert "+28.1 %" in hall  # (102.5 - 80) / 80
     assert "+25.0 %" in lines[3]  # the planner: 100 against 80
 
@@ -117,6 +125,15 @@ def test_command_bounds_every_episode(tmp_path, capsys):
     bounds = json.loads(out.with_suffix(".bounds.json").read_text())
     assert bounds["seeds"] == [0, 1] and all(b > 0 for b in bounds["bounds"])
     assert "gap to bound" in capsys.readouterr().out
+    # Reused: the same table without solving again; refused for other episodes.
+    again = tmp_path / "again.md"
+    saved = out.with_suffix(".bounds.json")
+    assert main(["seed-table", str(path), "--bounds", str(saved), "--out", str(again)]) == 0
+    assert again.read_text() == out.read_text()
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps([_row("prioritized", [40, 41], seeds=(0, 2))]))
+    assert main(["seed-table", str(other), "--bounds", str(saved)]) != 0
+    assert "bounds of other episodes" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -34,6 +34,8 @@ def register(sub) -> None:
                    help="CP-SAT seconds per episode's bound (0: no bound)")  # fmt: skip
     p.add_argument("--sites", default=None, metavar="set:NAME",
                    help="the scenario set the episodes were played on (to bound them)")  # fmt: skip
+    p.add_argument("--bounds", type=Path, default=None,
+                   help="reuse the bounds an earlier --out wrote (OUT.bounds.json)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None,
                    help="write the markdown table, and the bounds as OUT.bounds.json")  # fmt: skip
     p.set_defaults(func=run)
@@ -74,7 +76,16 @@ def run(args: argparse.Namespace) -> int:
     if not table_entries:
         return error(f"{args.results}: no policies in it")
     bounds = None
-    if args.bound_time > 0:
+    if args.bounds is not None:
+        try:
+            saved = json.loads(args.bounds.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            return error(f"{args.bounds}: {exc}")
+        episodes = [[e["scenario"], e["seed"]] for e in rows[0]["episodes"]]
+        if saved.get("episodes") != episodes:
+            return error(f"{args.bounds}: bounds of other episodes than {args.results}'s")
+        bounds = saved["bounds"]
+    elif args.bound_time > 0:
         try:
             bounds = episode_bounds(rows, args.bound_time, args.sites)
         except (multicrane.ScenarioError, ValueError) as exc:
@@ -92,7 +103,8 @@ def run(args: argparse.Namespace) -> int:
         args.out.write_text(table + "\n")
         if bounds is not None:
             seeds = [e["seed"] for e in first]
+            episodes = [[e["scenario"], e["seed"]] for e in first]
             args.out.with_suffix(".bounds.json").write_text(
-                json.dumps({"seeds": seeds, "bounds": bounds}) + "\n"
+                json.dumps({"seeds": seeds, "episodes": episodes, "bounds": bounds}) + "\n"
             )
     return 0

@@ -115,6 +115,20 @@ def shorter_share(entry: Entry, baseline: Entry) -> tuple[int, int, int]:
     return shorter, equal, pairs
 
 
+def episode_ratio(entry: Entry, baseline: Entry) -> float | None:
+    """The mean over (seed, episode) pairs where both finished of the entry's makespan over
+    the baseline's on the same episode (None: no such pair); on a set of sites of different
+    sizes this weighs every site alike, where the ratio of the means favours the big ones."""
+    base = baseline.makespans[0]
+    ratios = [
+        m / b
+        for spans in entry.makespans
+        for m, b in zip(spans, base, strict=True)
+        if m is not None and b is not None
+    ]
+    return statistics.fmean(ratios) if ratios else None
+
+
 def markdown_table(
     entries_: Sequence[Entry], baseline: str = "prioritized", bounds: Sequence[int] | None = None
 ) -> str:
@@ -124,22 +138,24 @@ def markdown_table(
     base = next((e for e in entries_ if e.name == baseline), None)
     bound = statistics.fmean(bounds) if bounds else None
     head = ["policy", "mean makespan [95 % interval]", "finished", "seeds finishing all",
-            "per training seed", f"/ {baseline}", f"shorter than {baseline}"]  # fmt: skip
+            "per training seed", f"/ {baseline} (mean of per-episode ratios)",
+            f"shorter than {baseline}"]  # fmt: skip
     if bound is not None:
         head.append(f"gap to bound ({bound:.1f})")
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for e in entries_:
         mean, ci = e.mean, e.ci
         cells = [
-            e.name + (f" ({len(e.seeds)} seeds)" if e.learned else ""),
+            e.name
+            + (f" ({len(e.seeds)} seed{'s' if len(e.seeds) > 1 else ''})" if e.learned else ""),
             "-" if mean is None else f"{mean:.1f}" + (f" [{ci[0]:.1f}, {ci[1]:.1f}]" if ci else ""),
             f"{e.finished}/{e.episodes}",
             f"{e.seeds_all_finished}/{len(e.seeds)}" if e.learned else "",
             ", ".join("-" if m is None else f"{m:.1f}" for m in e.per_seed) if e.learned else "",
         ]
-        ratio = (
-            "" if base is None or base.mean is None or mean is None else f"{mean / base.mean:.3f}"
-        )
+        ratio = ""
+        if base is not None and base.mean is not None and mean is not None:
+            ratio = f"{mean / base.mean:.3f} ({episode_ratio(e, base):.3f})"
         cells.append(ratio)
         if e.learned and base is not None:
             s, q, n = shorter_share(e, base)
