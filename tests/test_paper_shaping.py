@@ -134,6 +134,13 @@ def test_a_profile_passes_its_shaping_weight_to_its_runs():
     assert TrainConfig(**runs["dqn"]).shaping_weight == 2.0
     assert TrainConfig(**runs["maskable_ppo"]).shaping_weight == 0.0  # the paper's reward
     assert make_sweep(profile).to_dict()["shaping"] == {"dqn": 2.0}
+    options = {"potential": "path", "shaping_gamma": 1.0}
+    profile = replace(profile, options={"maskable_ppo": options})
+    runs = {r.algo: r.train for r in make_sweep(profile).runs() if r.config == "E1S1"}
+    cfg = TrainConfig(**runs["maskable_ppo"])
+    assert (cfg.potential, cfg.shaping_gamma) == ("path", 1.0)
+    assert TrainConfig(**runs["dqn"]).potential == "distance"
+    assert make_sweep(profile, algos=["dqn"]).to_dict()["options"] == {}
 
 
 def test_a_shaped_run_resumes_exactly(tmp_path):

@@ -36,6 +36,7 @@ class Profile:
     ``hyperparams``, ``n_envs`` and ``shaping`` are per algorithm
     (``TrainConfig.hyperparams`` / ``n_envs`` / ``shaping``, the weight of the potential-based
     shaping of the learner's reward); absent algorithms use the paper's settings and reward.
+    ``options``: other ``TrainConfig`` fields per algorithm (``potential``, ``shaping_gamma``).
     """
 
     name: str
@@ -51,6 +52,7 @@ class Profile:
     hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
     n_envs: dict[str, int] = field(default_factory=dict)
     shaping: dict[str, float] = field(default_factory=dict)
+    options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 # The standard profile's learners: the paper's settings except these (our choice, for speed:
@@ -120,6 +122,7 @@ PROFILES: dict[str, Profile] = {
             hyperparams={a: s["hyperparams"] for a, s in STANDARD_SETTINGS.items()},
             n_envs={a: s["n_envs"] for a, s in STANDARD_SETTINGS.items()},
             shaping={a: s["shaping"] for a, s in STANDARD_SETTINGS.items() if "shaping" in s},
+            options={a: s["options"] for a, s in STANDARD_SETTINGS.items() if "options" in s},
             about="under 2 h on 2 cores: all 16 configurations, double DQN and MaskablePPO "
             "with faster settings of ours (docs/benchmark.md), 5 seeds, "
             f"{STANDARD_STEPS:,} steps per run",
@@ -180,6 +183,7 @@ class Sweep:
     hyperparams: dict[str, dict[str, Any]] = field(default_factory=dict)
     n_envs: dict[str, int] = field(default_factory=dict)
     shaping: dict[str, float] = field(default_factory=dict)
+    options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def runs(self) -> list[RunSpec]:
         """Every run, configuration-major, then algorithm, then seed."""
@@ -206,6 +210,7 @@ class Sweep:
                 "final_episodes": self.final_episodes,
                 "checkpoint_every": self.checkpoint_every,
                 "torch_threads": 1,
+                **self.options.get(algo, {}),
             }
         )
 
@@ -233,6 +238,7 @@ class Sweep:
             "hyperparams": jsonable(self.hyperparams),
             "n_envs": dict(self.n_envs),
             "shaping": dict(self.shaping),
+            "options": jsonable(self.options),
         }
 
 
@@ -305,6 +311,7 @@ def make_sweep(
         hyperparams={a: dict(h) for a, h in profile.hyperparams.items() if a in chosen_algos},
         n_envs={a: n for a, n in profile.n_envs.items() if a in chosen_algos},
         shaping={a: w for a, w in profile.shaping.items() if a in chosen_algos},
+        options={a: dict(o) for a, o in profile.options.items() if a in chosen_algos},
         **budget,
     )
 
