@@ -8,7 +8,10 @@ return of the last training episodes and the curve. Run from the project root, e
 
     PYTHONPATH=$PWD OMP_NUM_THREADS=1 python tools/paper_trial.py E2S2 maskable_ppo \
         --steps 200000 --hp '{"n_steps": 128, "batch_size": 128}' --envs 16 --seed 1 \
-        --shaping 1 --out runs/trials
+        --shaping 1 --potential path --shaping-gamma 1 --out runs/trials
+
+(the `standard` profile's MaskablePPO settings; add ``"features": "grid_cnn"`` to ``--hp``
+for the convolutional extractor).
 """
 
 from __future__ import annotations
