@@ -134,6 +134,13 @@ def test_a_profile_passes_its_shaping_weight_to_its_runs():
     assert TrainConfig(**runs["dqn"]).shaping_weight == 2.0
     assert TrainConfig(**runs["maskable_ppo"]).shaping_weight == 0.0  # the paper's reward
     assert make_sweep(profile).to_dict()["shaping"] == {"dqn": 2.0}
+    options = {"potential": "path", "shaping_gamma": 1.0}
+    profile = replace(profile, options={"maskable_ppo": options})
+    runs = {r.algo: r.train for r in make_sweep(profile).runs() if r.config == "E1S1"}
+    cfg = TrainConfig(**runs["maskable_ppo"])
+    assert (cfg.potential, cfg.shaping_gamma) == ("path", 1.0)
+    assert TrainConfig(**runs["dqn"]).potential == "distance"
+    assert make_sweep(profile, algos=["dqn"]).to_dict()["options"] == {}
 
 
 def test_a_shaped_run_resumes_exactly(tmp_path):
@@ -150,3 +157,115 @@ def test_a_shaped_run_resumes_exactly(tmp_path):
     train(cfg, tmp_path / "cut", log=lambda *a: None)
     a, b = (load_run(tmp_path / d)[0].policy.state_dict() for d in ("whole", "cut"))
     assert a.keys() == b.keys() and all(th.equal(a[k], b[k]) for k in a)
+
+
+# -- the path potential (potential="path") ----------------------------------------------------
+
+
+def _path_length(sim, comp: int) -> int:
+    """Moves of a shortest path of ``comp`` from where it is to a goal pose of a free
+    compatible target, every component not in transit fixed (a forward search over anchor
+    positions, independent of the backward fields of PathPotential); Manhattan if none."""
+    from collections import deque
+
+    from multicrane.paths import current_cells, goal_positions
+    from multicrane.simulator import FREE, NOBODY
+    from multicrane.types import Status
+
+    st, site = sim.state, sim.site
+    free_targets = [t for t in site.compatible[comp] if st.filled_by[t] == NOBODY]
+    goals = set(goal_positions(sim, comp, free_targets))
+    cells = current_cells(sim, comp)
+    offsets = [c - cells[0] for c in cells]
+    passable = {0, comp + 1} | {c + 1 for c in np.flatnonzero(st.status == Status.IN_TRANSIT)}
+    passable = {FREE if v == 0 else v for v in passable}
+
+    def fits(p: int) -> bool:
+        return all(0 <= p + o < st.occ.size and int(st.occ[p + o]) in passable for o in offsets)
+
+    start, seen, queue = cells[0], {cells[0]}, deque([(cells[0], 0)])
+    while queue:
+        p, d = queue.popleft()
+        if p in goals:
+            return d
+        for delta in site.move_delta:
+            q = p + delta
+            if q not in seen and fits(q):
+                seen.add(q)
+                queue.append((q, d + 1))
+    x, y, z = site.cell(start)
+    return min((abs(gx - x) + abs(gy - y) + abs(gz - z)
+                for gx, gy, gz in map(site.cell, goals)), default=0)  # fmt: skip
+
+
+def _path_phi(sim, at_reset: dict[int, int]) -> float:
+    """phi of the path potential from scratch: components in the yard count their path
+    length at reset (``at_reset``), the one in transit its path length now."""
+    from multicrane.types import Status
+
+    total = 0
+    for comp in range(sim.site.n_components):
+        status = sim.state.status[comp]
+        if status in (Status.ASSEMBLED, Status.ARRIVED) or sim.state.prebuilt[comp]:
+            continue
+        total += at_reset[comp] if status == Status.INITIAL else _path_length(sim, comp)
+    return -float(total)
+
+
+@pytest.mark.parametrize(
+    "config,seed,optimal", [("E1S1", 0, True), ("E2S2", 1, True), ("E2S2", 2, False),
+                            ("E3S1", 0, False)]
+)  # fmt: skip
+def test_the_path_potential_equals_a_forward_search_and_telescopes(config, seed, optimal):
+    """At every step of an optimal or random episode: phi equals the from-scratch search,
+    the step adds w (gamma phi' - phi), and the discounted terms sum to w (gamma^T phi_T -
+    phi_0)."""
+    env = ShapedPaperEnv(Monitor(PaperAssemblyEnv(config)), W, GAMMA, potential="path")
+    env.reset(seed=seed)
+    sim = env.unwrapped.sim
+    at_reset = {c: _path_length(sim, c) for c in range(sim.site.n_components)}
+    phi0 = env.phi
+    assert phi0 == _path_phi(sim, at_reset) < 0
+    if optimal:
+        actions = _optimal_actions(config, seed)
+    else:
+        actions = np.random.default_rng(seed).integers(0, 6, 300).tolist()
+    discounted_f, t = 0.0, 0
+    for a in actions:
+        phi = env.phi
+        _, r, terminated, truncated, info = env.step(a)
+        phi_next = 0.0 if terminated else _path_phi(sim, at_reset)
+        assert env.phi == phi_next
+        assert r - info["paper_reward"] == pytest.approx(W * (GAMMA * phi_next - phi))
+        discounted_f += GAMMA**t * (r - info["paper_reward"])
+        t += 1
+        if terminated or truncated:
+            break
+    assert terminated == optimal
+    assert discounted_f == pytest.approx(W * (GAMMA**t * env.phi - phi0))
+
+
+def test_the_potential_and_its_discount_are_run_settings():
+    """TrainConfig.potential / shaping_gamma reach the training copies; bad values named."""
+
+    def copies(**kw):
+        cfg = TrainConfig("E1S1", paper=True, algo="maskable_ppo", n_envs=2, shaping=1, **kw)
+        algo = algorithm(cfg.algo, True)
+        return make_vec_env(cfg, algo, hyperparameters(algo, cfg.scenario, {})).envs
+
+    from multicrane.training.shaping import DistancePotential, PathPotential
+
+    plain = copies()
+    assert {type(e.potential) for e in plain} == {DistancePotential}
+    assert {e.gamma for e in plain} == {0.9}  # the learner's: the policy-invariant form
+    shaped = copies(potential="path", shaping_gamma=1.0)
+    assert {type(e.potential) for e in shaped} == {PathPotential}
+    assert {e.gamma for e in shaped} == {1.0}
+    with pytest.raises(ConfigError, match="potential='manhattan'"):
+        TrainConfig("E1S1", paper=True, potential="manhattan")
+    with pytest.raises(ConfigError, match="potential='path': a paper-mode option"):
+        TrainConfig("hall", paper=False, potential="path")
+    with pytest.raises(ConfigError, match="shaping_gamma=1.5"):
+        TrainConfig("E1S1", paper=True, shaping_gamma=1.5)
+    with pytest.raises(ValueError, match="potential='x'"):
+        ShapedPaperEnv(PaperAssemblyEnv("E1S1"), 1.0, 0.9, potential="x")

@@ -8,7 +8,10 @@ return of the last training episodes and the curve. Run from the project root, e
 
     PYTHONPATH=$PWD OMP_NUM_THREADS=1 python tools/paper_trial.py E2S2 maskable_ppo \
         --steps 200000 --hp '{"n_steps": 128, "batch_size": 128}' --envs 16 --seed 1 \
-        --shaping 1 --out runs/trials
+        --shaping 1 --potential path --shaping-gamma 1 --out runs/trials
+
+(the `standard` profile's MaskablePPO settings; add ``"features": "grid_cnn"`` to ``--hp``
+for the convolutional extractor).
 """
 
 from __future__ import annotations
@@ -32,6 +35,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--eval-every", type=int, default=50_000)
     p.add_argument("--shaping", type=float, default=0.0,
                    help="shaping weight of the learner's reward")  # fmt: skip
+    p.add_argument("--potential", choices=("distance", "path"), default="distance",
+                   help="the shaping potential (TrainConfig.potential)")  # fmt: skip
+    p.add_argument("--shaping-gamma", type=float, default=None,
+                   help="discount in the shaping term (default: the learner's)")  # fmt: skip
     p.add_argument("--out", type=Path, default=Path("runs/trials"),
                    help="parent of the run directory")  # fmt: skip
     p.add_argument("--log", type=Path, default=None, help="append the JSON line to this file")
@@ -50,14 +57,15 @@ def main(argv: list[str] | None = None) -> int:
         scenario=args.config, paper=True, algo=args.algo, total_steps=args.steps,
         seed=args.seed, n_envs=args.envs, hyperparams=hp, eval_every=args.eval_every,
         eval_episodes=5, final_episodes=20, checkpoint_every=0, torch_threads=1,
-        shaping=args.shaping,
+        shaping=args.shaping, potential=args.potential, shaping_gamma=args.shaping_gamma,
     )  # fmt: skip
     wall0, cpu0 = time.perf_counter(), time.process_time()
     result = train(cfg, out, log=lambda *a: None)
     final = result["final"]
     line = {
         "config": args.config, "algo": args.algo, "seed": args.seed, "hp": hp,
-        "n_envs": args.envs, "shaping": args.shaping, "steps": result["steps"],
+        "n_envs": args.envs, "shaping": args.shaping,
+        "potential": args.potential, "shaping_gamma": args.shaping_gamma, "steps": result["steps"],
         "wall": round(time.perf_counter() - wall0, 1),
         "cpu": round(time.process_time() - cpu0, 1),
         "return": round(final["return_mean"], 2),

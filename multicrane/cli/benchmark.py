@@ -38,7 +38,7 @@ examples:
   multicrane benchmark profiles                         # what each profile runs
   multicrane benchmark run --profile smoke              # seconds: try the tool
   multicrane benchmark run --profile quick --workers 2  # ~35 min on 2 cores
-  multicrane benchmark run --profile standard --workers 2  # Table I complete, ~2 h of CPU
+  multicrane benchmark run --profile standard --workers 2  # Table I complete, ~1.5 h on 2 cores
   multicrane benchmark status --profile quick           # done / partial / pending
   multicrane benchmark report --profile quick --docs    # table + curves into docs/
   multicrane benchmark run --profile paper --configs E3 --algos ppo --seeds 0-4

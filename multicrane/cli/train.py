@@ -62,6 +62,12 @@ def register(sub) -> None:
     p.add_argument("--shaping", type=float, default=None,
                    help="weight of the potential-based shaping term of the learner's reward "
                    "(0: off; default 1 multi-agent, 0 with --paper)")
+    p.add_argument("--potential", choices=("distance", "path"), default="distance",
+                   help="with --paper --shaping: the potential, Manhattan distances "
+                   "(default) or shortest collision-free path lengths")  # fmt: skip
+    p.add_argument("--shaping-gamma", type=float, default=None,
+                   help="discount in the shaping term (default: the learner's gamma; "
+                   "1: w (phi' - phi))")  # fmt: skip
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
     p.add_argument("--policy", choices=("mlp", "set"), default=None,
                    help="multi-agent task mode: 'set' for the set-based shared policy "
@@ -128,6 +134,8 @@ def build_config(args: argparse.Namespace):
         auto=args.auto,
         decisions="task" if args.curriculum else args.decisions,
         shaping=args.shaping,
+        potential=args.potential,
+        shaping_gamma=args.shaping_gamma,
         torch_threads=args.threads,
         policy=policy,
         set_limits=limits,

@@ -12,7 +12,8 @@ Multi-agent mode (parameter sharing, one row per crane): PPO and MaskablePPO wit
 of our own (8 copies x 128 steps, 10 epochs, gamma 0.95), with the potential-based shaping
 of ``multicrane.training.shaping``: without it, PPO learns to wait forever.
 
-Every value can be overridden (``TrainConfig.hyperparams``).
+Every value can be overridden (``TrainConfig.hyperparams``); ``features`` (ours, not an SB3
+setting) picks the features extractor by name (``multicrane.training.grid_cnn``).
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ from gymnasium import spaces
 from sb3_contrib import MaskablePPO
 from stable_baselines3 import A2C, DQN, PPO
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+from multicrane.training.grid_cnn import features_extractor
 
 
 class DoubleDQN(DQN):
@@ -176,13 +179,15 @@ def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, An
     if config is not None and algo.off_policy:
         params["gamma"] = paper_gamma(config)
     accepted = set(inspect.signature(algo.cls.__init__).parameters) - {"self", "policy", "env"}
-    accepted |= {"obs_scale"}
+    accepted |= {"obs_scale", "features"}
     for key, value in overrides.items():
         if key not in accepted or key in ("seed", "tensorboard_log", "verbose"):
             raise ValueError(
                 f"hyperparameter {key!r} is not a setting of {algo.label}: one of "
                 f"{', '.join(sorted(accepted - {'seed', 'tensorboard_log', 'verbose'}))}"
             )
+        if key == "features":
+            features_extractor(value)  # ValueError naming the choices
         if key == "policy_kwargs" and isinstance(value, dict):
             params["policy_kwargs"] = {**params.get("policy_kwargs", {}), **value}
         else:
@@ -195,7 +200,8 @@ def make_model(algo: Algorithm, venv, seed: int, params: dict, tensorboard_log: 
     params = dict(params)
     policy_kwargs = dict(params.pop("policy_kwargs", {}))
     obs_scale = float(params.pop("obs_scale", algo.obs_scale))
-    policy_kwargs.setdefault("features_extractor_class", ScaledFlatten)
+    extractor = features_extractor(params.pop("features", "flat")) or ScaledFlatten
+    policy_kwargs.setdefault("features_extractor_class", extractor)
     policy_kwargs.setdefault("features_extractor_kwargs", {"scale": obs_scale})
     with warnings.catch_warnings():
         # The paper's PPO minibatch (64) does not divide its rollout (16 x 125): SB3 warns.

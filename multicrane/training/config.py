@@ -12,6 +12,7 @@ from multicrane.paper_env import PAPER_CONFIGS
 
 CHECKPOINT = "checkpoint"  # the run directory's checkpoint folder (see training.trainer)
 DEFAULT_SHAPING = 1.0  # multi-agent mode; see multicrane.training.shaping
+POTENTIALS = ("distance", "path")  # paper mode's shaping potentials (training.shaping)
 
 
 class ConfigError(ValueError):
@@ -39,7 +40,10 @@ class TrainConfig:
     ``shaping``: weight of the potential-based shaping term added to the learner's reward
     (``multicrane.training.shaping``; multi-agent mode: default ``DEFAULT_SHAPING``; paper
     mode: default 0, the paper's reward; 0 turns it off). Evaluations, returns, curves and
-    success always use the environment's own reward.
+    success always use the environment's own reward. ``potential`` (paper mode): the
+    shaping's ``phi``, ``"distance"`` (Manhattan distances, the default) or ``"path"``
+    (shortest collision-free path lengths); ``shaping_gamma``: the discount in the shaping
+    term (None: the learner's own, the policy-invariant form; 1.0: ``w (phi' - phi)``).
     ``torch_threads``: 1 unless you have cores to spare. ``policy``: ``"mlp"`` (SB3's MLP on
     the flat observation) or ``"set"`` (``multicrane.training.set_policy``: MaskablePPO, task
     mode); ``set_limits``: the set policy's padded table sizes (``{"components", "cranes",
@@ -68,6 +72,8 @@ class TrainConfig:
     max_steps: int | None = None
     decisions: str = "motion"
     shaping: float | None = None
+    potential: str = "distance"
+    shaping_gamma: float | None = None
     torch_threads: int = 1
     policy: str = "mlp"
     set_limits: dict[str, int] | None = None
@@ -105,6 +111,18 @@ class TrainConfig:
             not isinstance(self.shaping, (int, float)) or self.shaping < 0
         ):
             raise ConfigError(f"shaping={self.shaping!r}: must be a number >= 0")
+        if self.potential not in POTENTIALS:
+            raise ConfigError(f"potential={self.potential!r}: one of {', '.join(POTENTIALS)}")
+        if self.potential != "distance" and not self.paper:
+            raise ConfigError(f"potential={self.potential!r}: a paper-mode option")
+        if self.shaping_gamma is not None and (
+            not isinstance(self.shaping_gamma, (int, float))
+            or isinstance(self.shaping_gamma, bool)
+            or not 0 <= self.shaping_gamma <= 1
+        ):
+            raise ConfigError(
+                f"shaping_gamma={self.shaping_gamma!r}: must be a number in [0, 1] or None"
+            )
         self._check_set_policy()
         self._check_events()
         if not isinstance(self.hyperparams, dict):

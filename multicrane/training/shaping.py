@@ -15,6 +15,12 @@ Claiming does not change ``phi`` (a claimed component starts at its pick-up pose
 environment's own reward, returns and statistics are untouched: only the reward the
 learner sees changes.
 
+Paper mode has two options (``TrainConfig.potential`` / ``shaping_gamma``): ``PathPotential``
+counts shortest collision-free path lengths instead of Manhattan distances, and the discount
+in ``F`` may be set apart from the learner's (1.0 gives ``w * (phi(s') - phi(s))``: no longer
+policy-invariant under a learner discount below 1, but without the constant part
+``(1 - gamma) * (-phi)`` that otherwise pays a learner for staying far from every target).
+
 The multi-agent vector environment (``multicrane.training.vec_env.CraneVecEnv``) adds the
 term itself; ``ShapedPaperEnv`` adds it to the single-agent benchmark environment
 (``multicrane.paper_env.PaperAssemblyEnv``), whose simulator has one crane.
@@ -23,14 +29,17 @@ term itself; ``ShapedPaperEnv`` adds it to the single-agent benchmark environmen
 from __future__ import annotations
 
 import gymnasium as gym
+import numpy as np
 
+from multicrane.grid_search import breadth_first, fits_everywhere
 from multicrane.paths import current_cells, goal_positions
-from multicrane.simulator import NOBODY, Simulator
+from multicrane.simulator import FREE, NOBODY, Simulator
 from multicrane.types import Status
 
 _ASSEMBLED = int(Status.ASSEMBLED)
 _ARRIVED = int(Status.ARRIVED)
 _INITIAL = int(Status.INITIAL)
+_IN_TRANSIT = int(Status.IN_TRANSIT)
 
 
 class DistancePotential:
@@ -129,14 +138,17 @@ class ShapedPaperEnv(gym.Wrapper):
     gives 0 then too) and the state's own value at truncation, where the learner bootstraps.
     """
 
-    def __init__(self, env: gym.Env, weight: float, gamma: float):
+    def __init__(self, env: gym.Env, weight: float, gamma: float, potential: str = "distance"):
         super().__init__(env)
         if not weight >= 0:
             raise ValueError(f"shaping weight must be >= 0, got {weight!r}")
         if not 0 <= gamma <= 1:
             raise ValueError(f"shaping gamma must be in [0, 1], got {gamma!r}")
+        kinds = {"distance": DistancePotential, "path": PathPotential}
+        if potential not in kinds:
+            raise ValueError(f"potential={potential!r}: one of {', '.join(kinds)}")
         self.weight, self.gamma = float(weight), float(gamma)
-        self.potential = DistancePotential(env.unwrapped.sim)
+        self.potential = kinds[potential](env.unwrapped.sim)
         self.phi = 0.0  # phi of the current state
 
     def reset(self, **kwargs):
@@ -173,3 +185,76 @@ def potential_from_scratch(sim: Simulator) -> float:
                     best = d
         total += best or 0
     return -float(total)
+
+
+class PathPotential:
+    """``phi`` with path lengths instead of Manhattan distances (``potential="path"``).
+
+    A component in transit counts the moves of a shortest collision-free path
+    (``multicrane.paths.distance_field``) from where it is to the nearest goal pose of a free
+    compatible target, with every component not in transit (and the obstacles) fixed; a
+    component in the yard counts the same from its pick-up pose, measured once at reset.
+    Unlike the Manhattan distance this has no local minimum in front of an obstacle or under
+    a beam's supports, so moving down it always leads to a target. A field is measured again
+    only when a component changes status or a target is filled.
+    """
+
+    def __init__(self, sim: Simulator):
+        self.sim = sim
+        self.reset()
+
+    def reset(self) -> None:
+        self._yard: list[int] | None = None  # per component: its distance at reset
+        self._fields: dict[int, tuple[bytes, object]] = {}
+        self._seen_pickup = None
+
+    def _distance(self, comp: int, field) -> int:
+        here = current_cells(self.sim, comp)[0]
+        d = int(field[here])
+        if d >= 0:
+            return d
+        x, y, z = self.sim.site.cell(here)  # nowhere to go now: fall back to Manhattan
+        return min(
+            (abs(gx - x) + abs(gy - y) + abs(gz - z)
+             for gx, gy, gz in (self.sim.site.cell(g) for g in self._goals(comp))),
+            default=0,
+        )  # fmt: skip
+
+    def _goals(self, comp: int) -> list[int]:
+        st = self.sim.state
+        free = [t for t in self.sim.site.compatible[comp] if st.filled_by[t] == NOBODY]
+        return goal_positions(self.sim, comp, free)
+
+    def _field(self, comp: int, key: bytes):
+        cached = self._fields.get(comp)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        sim, st = self.sim, self.sim.state
+        shape = current_cells(sim, comp)
+        moving = [c + 1 for c in (st.status == _IN_TRANSIT).nonzero()[0].tolist()]
+        free = (st.occ == FREE) | np.isin(st.occ, [comp + 1, *moving])
+        ok = fits_everywhere(free, [j - shape[0] for j in shape])
+        field = breadth_first(ok, self._goals(comp), sim.site.move_delta)
+        self._fields[comp] = (key, field)
+        return field
+
+    def __call__(self) -> float:
+        sim, st = self.sim, self.sim.state
+        key = st.status.tobytes() + st.filled_by.tobytes()
+        if self._yard is None or st.pickup is not self._seen_pickup:
+            self._seen_pickup = st.pickup
+            self._fields.clear()
+            self._yard = [
+                self._distance(c, self._field(c, key)) if st.status[c] == _INITIAL else 0
+                for c in range(sim.site.n_components)
+            ]
+        total = 0
+        for comp in range(sim.site.n_components):
+            s = int(st.status[comp])
+            if s in (_ASSEMBLED, _ARRIVED) or st.prebuilt[comp]:
+                continue
+            if s == _INITIAL:
+                total += self._yard[comp]
+            else:
+                total += self._distance(comp, self._field(comp, key))
+        return -float(total)
