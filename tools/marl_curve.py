@@ -7,7 +7,9 @@ the mean makespan of the greedy evaluation episodes against crane decisions trai
 horizontal reference lines (e.g. the prioritized planner and the lower bound). With several
 runs (training seeds of one setting, evaluated at the same points) each is a thin line and
 their mean a thick one, with the Student-t 95 % interval over seeds as a band
-(``multicrane.stats.ci95``). Needs matplotlib (the ``bench`` extra).
+(``multicrane.stats.ci95``). A point where a run did not finish every evaluation episode
+(its makespan is then the step limit) is left out of the mean and drawn as a red cross at
+the top of the plot. Needs matplotlib (the ``bench`` extra).
 """
 
 from __future__ import annotations
@@ -51,11 +53,26 @@ def main() -> int:
 
         n = min(len(c) for c in curves)  # the points every run reached
         steps = [q["step"] for q in curves[0][:n]]
-        for c in curves:
-            ax.plot(steps, [q["steps_mean"] for q in c[:n]], color="C0", alpha=0.3, linewidth=1)
-        columns = [[c[i]["steps_mean"] for c in curves] for i in range(n)]
+        finished = [[q.get("success_rate", 1.0) >= 1.0 for q in c[:n]] for c in curves]
+        top = max(
+            q["steps_mean"]
+            for c, ok in zip(curves, finished, strict=True)
+            for q, f in zip(c[:n], ok, strict=True)
+            if f
+        )
+        for c, ok in zip(curves, finished, strict=True):
+            ax.plot(steps, [q["steps_mean"] if f else None for q, f in zip(c[:n], ok, strict=True)],
+                    color="C0", alpha=0.3, linewidth=1)  # fmt: skip
+        stalls = [(steps[i], top * 1.03) for ok in finished for i, f in enumerate(ok) if not f]
+        if stalls:
+            ax.scatter([x for x, _ in stalls], [y for _, y in stalls], marker="x", color="red",
+                       zorder=3, label="a seed that did not finish every episode")  # fmt: skip
+        columns = [
+            [c[i]["steps_mean"] for c, ok in zip(curves, finished, strict=True) if ok[i]]
+            for i in range(n)
+        ]
         mean = [sum(col) / len(col) for col in columns]
-        band = [ci95(col) for col in columns]
+        band = [ci95(col) or (m, m) for col, m in zip(columns, mean, strict=True)]
         ax.plot(steps, mean, color="C0", marker="o", linewidth=2,
                 label=f"set policy, mean of {len(curves)} seeds (greedy evaluation)")  # fmt: skip
         ax.fill_between(steps, [b[0] for b in band], [b[1] for b in band], color="C0",
