@@ -26,6 +26,13 @@ def _optimal_actions(config: str, seed: int) -> tuple[int, ...]:
     return plan(env=env).actions
 
 
+def _episode_actions(config, seed, optimal: bool, n_random: int) -> list[int]:
+    """The exact planner's actions, or ``n_random`` uniform random moves from ``seed``."""
+    if optimal:
+        return _optimal_actions(config, seed)
+    return np.random.default_rng(seed).integers(0, 6, n_random).tolist()
+
+
 @pytest.mark.parametrize("config", ["E1S1", "E2S2", "E3S1"])
 def test_the_paper_env_and_its_returns_are_unchanged(config):
     """Same observations, paper reward, ends and Monitor return as the plain env."""
@@ -81,10 +88,7 @@ def test_the_shaping_terms_telescope_over_an_episode(config, seed, optimal):
     env = _shaped(config)
     env.reset(seed=seed)
     phi0 = env.phi
-    if optimal:
-        actions = _optimal_actions(config, seed)
-    else:
-        actions = np.random.default_rng(seed).integers(0, 6, 1000).tolist()
+    actions = _episode_actions(config, seed, optimal, 1000)
     discounted_f, t = 0.0, 0
     for a in actions:
         _, r, terminated, truncated, info = env.step(a)
@@ -226,10 +230,7 @@ def test_the_path_potential_equals_a_forward_search_and_telescopes(config, seed,
     at_reset = {c: _path_length(sim, c) for c in range(sim.site.n_components)}
     phi0 = env.phi
     assert phi0 == _path_phi(sim, at_reset) < 0
-    if optimal:
-        actions = _optimal_actions(config, seed)
-    else:
-        actions = np.random.default_rng(seed).integers(0, 6, 300).tolist()
+    actions = _episode_actions(config, seed, optimal, 300)
     discounted_f, t = 0.0, 0
     for a in actions:
         phi = env.phi
