@@ -938,3 +938,13 @@ def test_cli_sigint_checkpoints_and_resumes(tmp_path):
     reference = train(cfg, tmp_path / "reference", log=quiet)
     assert reference["steps"] == result["steps"]
     assert state_dicts_equal(final_model(out), final_model(tmp_path / "reference"))
+
+
+@pytest.mark.parametrize("policy", ["mlp", "set"])
+def test_shaping_gamma_sets_the_shaping_discount_of_every_vector_env(policy):
+    from multicrane.training.algorithms import algorithm
+
+    cfg = TrainConfig(scenario="e2s2", paper=False, algo="maskable_ppo", n_cranes=2,
+                      decisions="task", policy=policy, n_envs=1, shaping_gamma=1.0)  # fmt: skip
+    venv = trainer.make_vec_env(cfg, algorithm("maskable_ppo", False), {"gamma": 0.9})
+    assert venv.gamma == 1.0  # not the learner's 0.9, and not ignored by the set policy

@@ -95,29 +95,20 @@ def _guarded(command):
     return run
 
 
-def _make_env(args: argparse.Namespace):
+def _episode(args: argparse.Namespace):
+    """(env, policy) of the command's episode: the policy is made once (a run directory's
+    model loads once), and the environment plays at its training decision level unless
+    ``--decisions`` says otherwise."""
     import multicrane
-
-    max_steps = getattr(args, "steps", None) or args.max_steps
-    decisions = run_decisions(args.decisions, [_factory(args, args.policy)])
-    return multicrane.parallel_env(
-        args.scenario, n_cranes=args.cranes, auto=args.auto, max_steps=max_steps,
-        decisions=decisions,
-    )  # fmt: skip
-
-
-def _factory(args: argparse.Namespace, spec: str):
-    """``policies.factory(spec)``, made once per command (a run directory's model loads once)."""
     import policies
 
-    made = args.__dict__.setdefault("_factories", {})
-    if spec not in made:
-        made[spec] = policies.factory(spec, paper=False)
-    return made[spec]
-
-
-def _make_policy(args: argparse.Namespace, spec: str, env, seed: int):
-    return _factory(args, spec)(env, seed)
+    make_policy = policies.factory(args.policy, paper=False)
+    max_steps = getattr(args, "steps", None) or args.max_steps
+    env = multicrane.parallel_env(
+        args.scenario, n_cranes=args.cranes, auto=args.auto, max_steps=max_steps,
+        decisions=run_decisions(args.decisions, [make_policy]),
+    )  # fmt: skip
+    return env, make_policy(env, args.seed)
 
 
 def _stream(args: argparse.Namespace, name: str, scenario):
@@ -148,9 +139,8 @@ def cmd_live(args: argparse.Namespace) -> int:
 
     if not (args.spawn or args.connect is not None):
         args.spawn = True
-    env = _make_env(args)
+    env, policy = _episode(args)
     rec = _stream(args, f"{env.scenario.name} live", env.scenario)
-    policy = _make_policy(args, args.policy, env, args.seed)
     record = viewer.run_live(env, policy, args.seed, rec, policy_name=args.policy)
     rec.flush()
     print(_summary(record))
@@ -166,8 +156,7 @@ def cmd_record(args: argparse.Namespace) -> int:
 
     if not (args.rrd or args.record):
         return error("give --rrd and/or --record")
-    env = _make_env(args)
-    policy = _make_policy(args, args.policy, env, args.seed)
+    env, policy = _episode(args)
     if args.rrd:
         from multicrane import viewer
 

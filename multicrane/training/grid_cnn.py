@@ -21,10 +21,10 @@ import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-GRID_CHANNELS = 6  # the paper's planes (multicrane.paper_env: N_PAPER_CHANNELS)
+from multicrane.paper_env import N_PAPER_CHANNELS
 
 
-def grid_shape(observation_space: spaces.Space, channels: int = GRID_CHANNELS):
+def grid_shape(observation_space: spaces.Space, channels: int = N_PAPER_CHANNELS):
     """(x, y, channel) of a flat square-grid observation; ValueError naming the shape else."""
     shape = getattr(observation_space, "shape", None)
     n = int(np.prod(shape)) if shape else 0

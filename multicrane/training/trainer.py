@@ -88,11 +88,11 @@ def multi_env(cfg: TrainConfig):
 
 def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
     gamma = float(params.get("gamma", 0.99))
+    if cfg.shaping_gamma is not None:  # else the learner's own (policy-invariant shaping)
+        gamma = float(cfg.shaping_gamma)
     if cfg.policy == "set":
         return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
     n = cfg.n_envs or algo.n_envs
-    if cfg.shaping_gamma is not None:  # else the learner's own (policy-invariant shaping)
-        gamma = float(cfg.shaping_gamma)
     if cfg.paper:  # shaping: the learner's reward only; Monitor records the paper's
         w, kind = cfg.shaping_weight, cfg.potential
         shape = (lambda e: ShapedPaperEnv(e, w, gamma, kind)) if w else (lambda e: e)
