@@ -20,7 +20,7 @@ from multicrane.scenario_loader import load_scenario
 from multicrane.simulator import NOBODY, Simulator
 from multicrane.task_mode import TaskMode
 from multicrane.transitions import table_text
-from multicrane.types import CLAIM_BASE, Event, EventType, Status
+from multicrane.types import CLAIM_BASE, WAIT, Event, EventType, Status
 from multicrane.validation import (
     action_index,
     as_integer,
@@ -361,6 +361,11 @@ class MultiCraneEnv(ParallelEnv):
         return self.observer.observe_all()
 
     # -- extras --------------------------------------------------------------------------------
+
+    @property
+    def wait_action(self) -> int:
+        """The action that waits: ``0`` in task mode, ``WAIT`` (6) at the motion level."""
+        return 0 if self.task_mode is not None else WAIT
 
     def task_feasible(self, crane: int, task: int) -> bool:
         """Task mode: would ``task`` start for ``crane`` now (the carrier's space-time search

@@ -107,6 +107,11 @@ class ObservationLayout:
         return slice(start, start + CRANE_FEATURES)
 
     @property
+    def clock(self) -> slice:
+        """The crane vector's last value: the fraction of the step limit used."""
+        return slice(self.crane.stop - 1, self.crane.stop)
+
+    @property
     def events(self) -> slice:
         start = self.crane.stop
         n = self.n_components + self.n_cranes + self.plan[0] * self.plan[1] if self.n_cranes else 0

@@ -15,7 +15,8 @@ directory or of its ``model.zip`` (needs the ``train`` extra; the model acts gre
 mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything
 else the single-agent benchmark mode.
 ``options`` go to the policy's constructor (e.g. ``rank="nearest"`` for ``prioritized``,
-``patience`` for ``greedy``, ``deterministic`` for a trained model).
+``patience`` for ``greedy``, ``deterministic`` and, in the multi-agent mode, ``break_waits``
+for a trained model: ``multicrane.training.model_policy``).
 
 Seeding rule. A policy is made for one episode, the one ``env.reset(seed=seed)`` starts.
 Whatever it draws at random comes from its own generator ``np.random.default_rng([seed, 1])``

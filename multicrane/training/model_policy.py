@@ -6,6 +6,10 @@
     policy = SharedModelPolicy(model, env)  # multi-agent mode: policy(observations) -> actions
 
 Both act greedily (``deterministic=True``); a masked model gets the environment's masks.
+A greedy team can reach a fixed point: every crane waits, time passes and nothing else
+changes, so the same observations give the same waits until the step limit. The multi-agent
+wrappers notice it (``WaitLoop``) and then start the one allowed task that the policy
+prefers most (``break_waits=False`` keeps the plain greedy actions).
 ``policies.make`` plugs these into the policy registry (a run directory or ``model.zip`` as a
 policy name).
 """
@@ -18,6 +22,7 @@ import numpy as np
 
 from multicrane.training.algorithms import algorithm
 from multicrane.training.config import CHECKPOINT, TrainConfig
+from multicrane.training.set_policy import BLOCKED
 
 
 def _is_masked(model) -> bool:
@@ -41,26 +46,94 @@ class PaperModelPolicy:
         return int(action)
 
 
+class WaitLoop:
+    """Whether a greedy team is stuck waiting: its last joint action was all waits, the clock
+    has moved since, and every crane sees exactly what it saw then, the observation's own
+    clock (``env.observation_layout.clock``, motion level only) aside. A deterministic
+    policy would (all but) answer the same again, for ever: nothing outside the team changes
+    the site while every crane waits (site events change the observation)."""
+
+    def __init__(self, env):
+        env = getattr(env, "unwrapped", env)
+        self.state_of = lambda: env.sim.state
+        self.clock = getattr(env.observation_layout, "clock", None)
+        self.wait = env.wait_action
+        self.last = None  # (clock, observations, all waited)
+
+    def stuck(self, batch: np.ndarray) -> bool:
+        if self.last is None:
+            return False
+        clock, seen, waited = self.last
+        return (
+            waited
+            and self.state_of().step_count > clock
+            and np.array_equal(self._timeless(batch), seen)
+        )
+
+    def remember(self, batch: np.ndarray, actions: np.ndarray) -> None:
+        waited = bool(np.all(actions == self.wait))
+        self.last = (self.state_of().step_count, self._timeless(batch), waited)
+
+    def _timeless(self, batch: np.ndarray) -> np.ndarray:
+        out = batch.copy()
+        if self.clock is not None:
+            out[:, self.clock] = 0
+        return out
+
+
+def break_wait(scores: np.ndarray, wait: int) -> np.ndarray:
+    """All waits but one: the allowed non-wait action with the best score over all rows
+    (``scores``: rows x actions, ``-inf`` or ``BLOCKED`` where not allowed; ``wait``: the
+    waiting action's column)."""
+    others = np.array(scores, dtype=np.float64)
+    others[:, wait] = -np.inf
+    actions = np.full(len(scores), wait, dtype=np.int64)
+    row, col = np.unravel_index(np.argmax(others), others.shape)
+    if others[row, col] > BLOCKED:  # else nobody may do anything but wait
+        actions[row] = col
+    return actions
+
+
 class SharedModelPolicy:
     """One model acting for every crane of a ``MultiCraneEnv`` (parameter sharing):
-    ``policy(observations) -> {agent: action}``, all cranes in one batch."""
+    ``policy(observations) -> {agent: action}``, all cranes in one batch; greedy, it breaks a
+    wait loop (``WaitLoop``) unless ``break_waits=False``."""
 
-    def __init__(self, model, env, deterministic: bool = True):
+    def __init__(self, model, env, deterministic: bool = True, break_waits: bool = True):
         self.model = model
         self.env = env
         self.masked = _is_masked(model)
         self.deterministic = deterministic
+        self.loop = WaitLoop(env) if deterministic and break_waits else None
 
     def __call__(self, observations: dict) -> dict:
         agents = list(observations)
-        batch = np.stack([observations[a]["observation"] for a in agents])
-        kwargs = {}
-        if self.masked:
-            kwargs["action_masks"] = np.stack(
-                [observations[a]["action_mask"] for a in agents]
-            ).astype(bool)
-        actions, _ = self.model.predict(batch, deterministic=self.deterministic, **kwargs)
+        batch, masks = self._inputs(observations)
+        if self.loop is not None and self.loop.stuck(batch):
+            actions = break_wait(self._scores(batch, masks), self.loop.wait)
+        else:
+            actions = self._act(batch, masks)
+        if self.loop is not None:
+            self.loop.remember(batch, actions)
         return {a: int(x) for a, x in zip(agents, actions, strict=True)}
+
+    def _inputs(self, observations: dict) -> tuple[np.ndarray, np.ndarray]:
+        batch = np.stack([o["observation"] for o in observations.values()])
+        masks = np.stack([o["action_mask"] for o in observations.values()]).astype(bool)
+        return batch, masks
+
+    def _act(self, batch: np.ndarray, masks: np.ndarray) -> np.ndarray:
+        kwargs = {"action_masks": masks} if self.masked else {}
+        actions, _ = self.model.predict(batch, deterministic=self.deterministic, **kwargs)
+        return np.asarray(actions)
+
+    def _scores(self, batch: np.ndarray, masks: np.ndarray) -> np.ndarray:
+        import torch as th
+
+        policy = self.model.policy
+        with th.no_grad():
+            logits = policy.get_distribution(policy.obs_to_tensor(batch)[0]).distribution.logits
+        return np.where(masks, logits.numpy(), BLOCKED)
 
 
 class SetModelPolicy(SharedModelPolicy):
@@ -69,11 +142,11 @@ class SetModelPolicy(SharedModelPolicy):
     (``multicrane.training.set_obs``) and the cranes go in one batch. A site bigger than the
     model's limits is played by a copy of the network resized to it (same weights)."""
 
-    def __init__(self, model, env, deterministic: bool = True):
+    def __init__(self, model, env, deterministic: bool = True, break_waits: bool = True):
         from multicrane.training.set_obs import Padder, union
         from multicrane.training.set_policy import SetActor
 
-        super().__init__(model, env, deterministic)
+        super().__init__(model, env, deterministic, break_waits)
         limits = model.policy.features_extractor.limits
         if not limits.fits(env.observation_layout):
             if env.observation_layout.events is not None and not limits.events:
@@ -82,13 +155,17 @@ class SetModelPolicy(SharedModelPolicy):
         self.actor = SetActor(model.policy, limits)
         self.padder = Padder(env.observation_layout, self.actor.limits)
 
-    def __call__(self, observations: dict) -> dict:
-        agents = list(observations)
+    def _inputs(self, observations: dict) -> tuple[np.ndarray, np.ndarray]:
         pad = self.padder
-        batch = np.stack([pad.pad(observations[a]["observation"]) for a in agents])
-        masks = np.stack([pad.pad_mask(observations[a]["action_mask"]) for a in agents])
-        actions = self.actor(batch, masks, self.deterministic)
-        return {a: int(x) for a, x in zip(agents, actions, strict=True)}
+        batch = np.stack([pad.pad(o["observation"]) for o in observations.values()])
+        masks = np.stack([pad.pad_mask(o["action_mask"]) for o in observations.values()])
+        return batch, masks
+
+    def _act(self, batch: np.ndarray, masks: np.ndarray) -> np.ndarray:
+        return self.actor(batch, masks, self.deterministic)
+
+    def _scores(self, batch: np.ndarray, masks: np.ndarray) -> np.ndarray:
+        return self.actor.logits(batch, masks).numpy()
 
 
 class _Layout:
@@ -105,10 +182,13 @@ def _is_set(model) -> bool:
     return isinstance(getattr(model, "policy", None), SetPolicy)
 
 
-def model_policy(model, env, paper: bool, deterministic: bool = True):
-    """The wrapper of ``model`` for ``env``'s mode (``paper``: the single-agent mode)."""
-    cls = PaperModelPolicy if paper else SetModelPolicy if _is_set(model) else SharedModelPolicy
-    return cls(model, env, deterministic=deterministic)
+def model_policy(model, env, paper: bool, deterministic: bool = True, **options):
+    """The wrapper of ``model`` for ``env``'s mode (``paper``: the single-agent mode);
+    ``options``: ``break_waits`` for the multi-agent mode."""
+    if paper:
+        return PaperModelPolicy(model, env, deterministic=deterministic)
+    cls = SetModelPolicy if _is_set(model) else SharedModelPolicy
+    return cls(model, env, deterministic=deterministic, **options)
 
 
 def load_run(path: str | Path, which: str = "final"):

@@ -188,12 +188,17 @@ class SetActor:
             self.extractor.load_state_dict(old.state_dict())
         self.limits = self.extractor.limits
 
-    def __call__(self, batch, masks, deterministic: bool = True):
-        """One action per row: the best (or a sampled) allowed action."""
+    def logits(self, batch, masks) -> th.Tensor:
+        """The masked logits, one row per observation (``BLOCKED`` where not allowed)."""
         self.extractor.eval()
         with th.no_grad():
             logits = self.extractor(th.as_tensor(batch))[:, : self.limits.n_actions]
-            logits = th.where(th.as_tensor(masks), logits, th.full_like(logits, BLOCKED))
-            if deterministic:
-                return logits.argmax(-1).numpy()
+            return th.where(th.as_tensor(masks), logits, th.full_like(logits, BLOCKED))
+
+    def __call__(self, batch, masks, deterministic: bool = True):
+        """One action per row: the best (or a sampled) allowed action."""
+        logits = self.logits(batch, masks)
+        if deterministic:
+            return logits.argmax(-1).numpy()
+        with th.no_grad():
             return th.distributions.Categorical(logits=logits).sample().numpy()
