@@ -10,6 +10,8 @@ task-level planners of ``policies.task_planners``), ``replanning`` (the prioriti
 by the name that says what it does on a site with events: it notices them and replans;
 the same planner), ``static-plan`` (the static baseline of ``policies.static_plan``: one
 plan at reset for the undisturbed site, executed in order; motion decisions only),
+``lookahead`` (``policies.lookahead``: the prioritized planner improved by rollouts on copies
+of the site; task decisions only, sites without events),
 ``optimal`` (the exact planner, single-agent mode only), or the path of a training run
 directory or of its ``model.zip`` (needs the ``train`` extra; the model acts greedily). The
 mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything
@@ -38,9 +40,9 @@ from policies.random_policy import RandomMoves, RandomPolicy
 
 POLICY_STREAM = 1
 PAPER_NAMES = ("optimal", "greedy", "random")
-MULTI_NAMES = ("prioritized", "greedy", "random", "replanning", "static-plan")
-NAMES = ("greedy", "optimal", "prioritized", "random", "replanning", "static-plan")
-TASK_NAMES = ("prioritized", "greedy", "random", "replanning")
+MULTI_NAMES = ("prioritized", "greedy", "random", "replanning", "static-plan", "lookahead")
+NAMES = ("greedy", "lookahead", "optimal", "prioritized", "random", "replanning", "static-plan")
+TASK_NAMES = ("prioritized", "greedy", "random", "replanning", "lookahead")
 
 
 class PolicyError(ValueError):
@@ -91,6 +93,18 @@ def _builtin(name: str, paper: bool, env=None) -> Callable[..., Any]:
         return lambda env, seed, **o: RandomMoves(seed=policy_seed(seed), **o)
     if name == "static-plan" and _task_level(env):
         raise PolicyError("policy 'static-plan' drives motion decisions (decisions='motion')")
+    if name == "lookahead" and not _task_level(env):
+        raise PolicyError("policy 'lookahead' drives task decisions (decisions='task')")
+    if name == "lookahead":
+        from policies.lookahead import TaskLookahead
+
+        def build(env, seed, **o):
+            try:
+                return TaskLookahead(env, seed=policy_seed(seed), **o)
+            except ValueError as exc:
+                raise PolicyError(f"policy 'lookahead': {exc}") from None
+
+        return build
     if name in TASK_NAMES and _task_level(env):
         from policies import task_planners
 

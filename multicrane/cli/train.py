@@ -20,6 +20,8 @@ for cranes (needs the 'train' extra).
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
     multicrane train --scenario set:train --curriculum grow --steps 300000
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --events low
+    multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set \
+        --imitate lookahead --steps 100000
 
 The run lives in --out (default runs/<name>): config.json, checkpoint/ (every
 --checkpoint-every steps and on Ctrl-C), tb/ (tensorboard --logdir runs), then model.zip and
@@ -79,6 +81,19 @@ def register(sub) -> None:
                    help="set policy: padded components, cranes, tasks (default: the site's)")
     p.add_argument("--workers", type=int, default=1,
                    help="set policy: processes running the environment copies (default 1)")
+    p.add_argument("--reward", choices=("paper", "makespan"), default="paper",
+                   help="multi-agent: the environments' reward, the paper's (default) or "
+                   "makespan (-1 per simulated step; what the makespan tables measure)")
+    p.add_argument("--imitate", default=None, metavar="POLICY",
+                   help="set policy: fit it to this planner's choices before PPO "
+                   "(prioritized, lookahead; docs/training.md)")  # fmt: skip
+    p.add_argument("--imitate-episodes", type=int, default=64,
+                   help="with --imitate: the teacher's episodes (default 64)")
+    p.add_argument("--imitate-epochs", type=int, default=10,
+                   help="with --imitate: passes over them (default 10)")
+    p.add_argument("--imitate-demos", default=None, metavar="FILE.npz",
+                   help="with --imitate: keep the teacher's episodes in this file (read if it "
+                   "holds the same setting, else written): seeds can share them")
     p.add_argument("--out", type=Path, default=None, help="run directory")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
@@ -142,7 +157,21 @@ def build_config(args: argparse.Namespace):
         curriculum=args.curriculum,
         workers=args.workers,
         events=args.events,
+        reward=args.reward,
+        imitate=args.imitate,
+        imitate_episodes=args.imitate_episodes,
+        imitate_epochs=args.imitate_epochs,
+        imitate_demos=args.imitate_demos,
     )
+
+
+def teacher_of(cfg):
+    """The policy factory ``cfg.imitate`` names (None without one)."""
+    if cfg.imitate is None:
+        return None
+    import policies
+
+    return policies.factory(cfg.imitate, paper=False)
 
 
 def print_result(result: dict, run_dir: Path) -> None:
@@ -180,7 +209,7 @@ def run(args: argparse.Namespace) -> int:
         cfg = build_config(args)
         run_dir = args.out or Path("runs") / cfg.name
         bar = not args.no_progress and progress.enabled()
-        result = train(cfg, run_dir, progress_bar=bar)
+        result = train(cfg, run_dir, progress_bar=bar, teacher=teacher_of(cfg))
     except (ConfigError, ScenarioError, ValueError, RunLockedError) as exc:
         return error(exc)
     if result is None:

@@ -53,6 +53,15 @@ class TrainConfig:
     processes running the set policy's environment copies (``multicrane.training.set_workers``).
     ``events``: the site events of the multi-agent environments, ``"none"``, ``"low"`` or
     ``"high"`` (``multicrane.events``; None: the scenario's own ``[events]`` table, if any).
+    ``reward`` (multi-agent mode): the environments' reward, ``"paper"`` (the paper's team
+    reward) or ``"makespan"`` (``-1`` per simulated step and the completion bonus: what the
+    makespan comparisons measure; ``multicrane.reward``). ``imitate`` (multi-agent
+    MaskablePPO): the name of a teacher policy (``"prioritized"``, ``"lookahead"``) whose
+    choices the fresh policy is fitted to before PPO starts
+    (``multicrane.training.imitation``): ``imitate_episodes`` teacher episodes,
+    ``imitate_epochs`` passes over them; ``imitate_demos``: a ``.npz`` file that keeps them
+    (read when it exists and was made for the same setting, else written), so that several
+    seeds share one set of teacher episodes.
     """
 
     scenario: str = "E2S2"
@@ -80,6 +89,11 @@ class TrainConfig:
     curriculum: str | None = None
     workers: int = 1
     events: str | None = None
+    reward: str = "paper"
+    imitate: str | None = None
+    imitate_episodes: int = 64
+    imitate_epochs: int = 10
+    imitate_demos: str | None = None
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -95,7 +109,8 @@ class TrainConfig:
             raise ConfigError(f"decisions={self.decisions!r}: must be 'motion' or 'task'")
         if self.paper and self.decisions != "motion":
             raise ConfigError("decisions='task' is a multi-agent option, not paper mode")
-        for name in ("total_steps", "eval_episodes", "torch_threads"):
+        for name in ("total_steps", "eval_episodes", "torch_threads", "imitate_episodes",
+                     "imitate_epochs"):  # fmt: skip
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                 raise ConfigError(f"{name}={value!r}: must be a positive integer")
@@ -124,7 +139,14 @@ class TrainConfig:
                 f"shaping_gamma={self.shaping_gamma!r}: must be a number in [0, 1] or None"
             )
         self._check_set_policy()
+        self._check_imitation()
         self._check_events()
+        from multicrane.crane_env import REWARDS
+
+        if self.reward not in REWARDS:
+            raise ConfigError(f"reward={self.reward!r}: one of {', '.join(REWARDS)}")
+        if self.paper and self.reward != "paper":
+            raise ConfigError(f"reward={self.reward!r}: a multi-agent option, not paper mode")
         if not isinstance(self.hyperparams, dict):
             raise ConfigError(f"hyperparams={self.hyperparams!r}: must be a mapping")
         from multicrane.training.algorithms import algorithm, hyperparameters
@@ -180,6 +202,18 @@ class TrainConfig:
                 raise ConfigError(
                     f"scenario={self.scenario!r}: a curriculum trains on 'set:train'"
                 )
+
+    def _check_imitation(self) -> None:
+        if self.imitate is None:
+            if self.imitate_demos is not None:
+                raise ConfigError(f"imitate_demos={self.imitate_demos!r}: needs imitate")
+            return
+        if not isinstance(self.imitate, str) or not self.imitate:
+            raise ConfigError(f"imitate={self.imitate!r}: must be a teacher policy's name")
+        if self.paper or self.algo != "maskable_ppo":
+            raise ConfigError(
+                f"imitate={self.imitate!r}: needs the multi-agent mode and algo='maskable_ppo'"
+            )
 
     def _check_events(self) -> None:
         if self.events is None:

@@ -106,11 +106,13 @@ def stage_pool(name: str, index: int) -> tuple[int, ...]:
 class SiteCurriculum:
     """The ``sites`` source of a ``SetVecEnv`` (see the module doc)."""
 
-    def __init__(self, name: str, n_copies: int, max_steps: int | None = None):
+    def __init__(self, name: str, n_copies: int, max_steps: int | None = None,
+                 reward: str = "paper"):  # fmt: skip
         if name not in CURRICULA:
             raise ValueError(f"unknown curriculum {name!r}: one of {', '.join(CURRICULA)}")
         self.name, self.plan = name, CURRICULA[name]
         self.max_steps = max_steps
+        self.reward = reward
         self.stage = 0
         self.episodes = 0  # in this stage
         self.recent: deque[bool] = deque(maxlen=self.plan.window)
@@ -127,7 +129,8 @@ class SiteCurriculum:
         key = (copy, seed)
         if key not in self._cache:
             self._cache[key] = MultiCraneEnv(
-                _site(seed), decisions="task", max_steps=self.max_steps
+                _site(seed), decisions="task", max_steps=self.max_steps,
+                reward=getattr(self, "reward", "paper"),  # (checkpoints before the option)
             )
         return self._cache[key]
 

@@ -88,12 +88,14 @@ def make_set_vec_env(cfg, n_envs: int, gamma: float, workers: int | None = None)
     if cfg.curriculum is not None:
         from multicrane.training.curriculum import SiteCurriculum
 
-        sites = SiteCurriculum(cfg.curriculum, n_envs, max_steps=cfg.max_steps)
+        sites = SiteCurriculum(cfg.curriculum, n_envs, max_steps=cfg.max_steps,
+                               reward=cfg.reward)  # fmt: skip
         return SetVecEnv(sites.first_env, n_envs, limits, cfg.shaping_weight, gamma, sites)
 
     def make(copy: int):
         return MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, max_steps=cfg.max_steps,
-                             decisions="task", events=cfg.events)  # fmt: skip
+                             decisions="task", events=cfg.events,
+                             reward=cfg.reward)  # fmt: skip
 
     return SetVecEnv(make, n_envs, limits, cfg.shaping_weight, gamma)
 
@@ -128,7 +130,7 @@ def evaluation_sites(cfg, episodes: int) -> list[tuple[str, Any]]:
     return [(m.name, m.scenario()) for m in members("test-small")[:episodes]]
 
 
-def evaluate_on_sites(model, sites, seeds, max_steps: int | None = None):
+def evaluate_on_sites(model, sites, seeds, max_steps: int | None = None, reward: str = "paper"):
     """Greedy episodes of a set model, one per (site, seed) pair: (episodes, summary)."""
     from multicrane.crane_env import MultiCraneEnv
     from multicrane.rollout import run_episode, summarise
@@ -136,7 +138,7 @@ def evaluate_on_sites(model, sites, seeds, max_steps: int | None = None):
 
     episodes = []
     for (name, scenario), seed in zip(sites, seeds, strict=True):
-        env = MultiCraneEnv(scenario, decisions="task", max_steps=max_steps)
+        env = MultiCraneEnv(scenario, decisions="task", max_steps=max_steps, reward=reward)
         episode = run_episode(env, SetModelPolicy(model, env), seed=seed)
         episode["site"] = name
         episodes.append(episode)

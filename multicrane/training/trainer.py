@@ -29,12 +29,10 @@ from typing import Any
 import numpy as np
 import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.monitor import Monitor
 
 from multicrane.files import write_json_atomic
-from multicrane.rollout import evaluate, optimal_returns
 from multicrane.run_lock import RunLock
-from multicrane.training.algorithms import Algorithm, algorithm, hyperparameters, make_model
+from multicrane.training.algorithms import algorithm, hyperparameters, make_model
 from multicrane.training.checkpoints import (
     checkpoint_complete,
     load_checkpoint,
@@ -42,18 +40,12 @@ from multicrane.training.checkpoints import (
     save_checkpoint,
 )
 from multicrane.training.config import ConfigError, TrainConfig
-from multicrane.training.model_policy import model_policy
-from multicrane.training.seeding import evaluation_seeds
-from multicrane.training.set_training import (
-    SET_COPIES,
-    evaluate_on_sites,
-    evaluation_sites,
-    make_set_model,
-    make_set_vec_env,
-    set_hyperparameters,
+from multicrane.training.run_envs import (
+    evaluate_model,
+    make_vec_env,
+    paper_env,  # noqa: F401 (imported from here)
 )
-from multicrane.training.shaping import ShapedPaperEnv
-from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
+from multicrane.training.set_training import make_set_model, set_hyperparameters
 
 RESULT = "result.json"
 PACKAGES = (
@@ -66,52 +58,6 @@ PACKAGES = (
     "sb3-contrib",
     "supersuit",
 )
-
-
-# -- environments ------------------------------------------------------------------------------
-
-
-def paper_env(cfg: TrainConfig, algo: Algorithm):
-    from multicrane.paper_env import PaperAssemblyEnv
-
-    mask = algo.masked if cfg.mask_blocked_moves is None else cfg.mask_blocked_moves
-    return PaperAssemblyEnv(cfg.scenario, mask_blocked_moves=mask)
-
-
-def multi_env(cfg: TrainConfig):
-    from multicrane.crane_env import MultiCraneEnv
-
-    return MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto,
-                         max_steps=cfg.max_steps, decisions=cfg.decisions,
-                         events=cfg.events)  # fmt: skip
-
-
-def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
-    gamma = float(params.get("gamma", 0.99))
-    if cfg.shaping_gamma is not None:  # else the learner's own (policy-invariant shaping)
-        gamma = float(cfg.shaping_gamma)
-    if cfg.policy == "set":
-        return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
-    n = cfg.n_envs or algo.n_envs
-    if cfg.paper:  # shaping: the learner's reward only; Monitor records the paper's
-        w, kind = cfg.shaping_weight, cfg.potential
-        shape = (lambda e: ShapedPaperEnv(e, w, gamma, kind)) if w else (lambda e: e)
-        return SeededDummyVecEnv([lambda: shape(Monitor(paper_env(cfg, algo)))] * n)
-    return CraneVecEnv(lambda: multi_env(cfg), n, shaping=cfg.shaping_weight, gamma=gamma)
-
-
-# -- evaluation --------------------------------------------------------------------------------
-
-
-def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, optimal: bool):
-    """Greedy episodes of the model on the evaluation seeds: (episodes, summary), with the
-    gap to the exact planner's returns on the same seeds when ``optimal`` (paper mode)."""
-    seeds = evaluation_seeds(episodes)
-    if cfg.curriculum is not None:  # held-out generated sites, one episode each
-        return evaluate_on_sites(model, evaluation_sites(cfg, episodes), seeds, cfg.max_steps)
-    env = paper_env(cfg, algo) if cfg.paper else multi_env(cfg)
-    best = optimal_returns(env, seeds) if optimal and cfg.paper else None
-    return evaluate(env, lambda e, s: model_policy(model, e, cfg.paper), seeds, optimal=best)
 
 
 # -- checkpoints -------------------------------------------------------------------------------
@@ -203,12 +149,19 @@ class _RunMonitor(BaseCallback):
 
 
 class Run:
-    """One training run in its directory; see the module doc."""
+    """One training run in its directory; see the module doc. ``teacher``: the policy factory
+    of ``cfg.imitate`` (``make_teacher(env, seed)``, e.g. ``policies.factory(name)``)."""
 
-    def __init__(self, cfg: TrainConfig, run_dir: Path, log=print):
+    def __init__(self, cfg: TrainConfig, run_dir: Path, log=print, teacher=None):
         self.cfg = cfg
         self.dir = Path(run_dir)
         self.log = log
+        self.teacher = teacher
+        if cfg.imitate is not None and teacher is None:
+            raise ConfigError(
+                f"imitate={cfg.imitate!r}: pass its policy as teacher= "
+                f"(policies.factory({cfg.imitate!r}); multicrane train does)"
+            )
         self.algo = algorithm(cfg.algo, cfg.paper)
         if cfg.policy == "set":
             self.params = set_hyperparameters(cfg.hyperparams)
@@ -303,6 +256,12 @@ class Run:
                 "seconds": 0.0,
                 "sessions": 1,
             }
+            if self.cfg.imitate is not None:
+                from multicrane.training.imitation import imitate
+
+                self.progress["imitation"] = imitate(
+                    self.cfg, self.params, self.model.policy, self.teacher, self.log
+                )
         else:
             self.model, self.progress = loaded
             self.progress["sessions"] += 1
@@ -354,6 +313,7 @@ class Run:
             "eval_seconds": round(time.perf_counter() - start, 3),
             "steps_per_second": round(self.model.num_timesteps / max(train_seconds, 1e-9), 1),
             "sessions": self.progress["sessions"],
+            **({"imitation": self.progress["imitation"]} if "imitation" in self.progress else {}),
             **_curriculum(self.venv),
             "versions": versions(),
             "python": platform.python_version(),
@@ -371,10 +331,13 @@ def train(
     progress_bar: bool = False,
     stop_at: int | None = None,
     log=print,
+    teacher=None,
 ) -> dict | None:
     """Train ``cfg`` in ``run_dir`` (resuming what is there); the result dict (also in
-    ``result.json``), or None when interrupted or stopped at ``stop_at`` steps."""
-    return Run(cfg, Path(run_dir), log=log).execute(progress_bar=progress_bar, stop_at=stop_at)
+    ``result.json``), or None when interrupted or stopped at ``stop_at`` steps. ``teacher``:
+    the policy factory that ``cfg.imitate`` names (see ``Run``)."""
+    run = Run(cfg, Path(run_dir), log=log, teacher=teacher)
+    return run.execute(progress_bar=progress_bar, stop_at=stop_at)
 
 
 def _curriculum(venv) -> dict:

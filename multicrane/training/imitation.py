@@ -1,0 +1,300 @@
+"""Imitation: a planner's choices fitted into a shared crane policy before PPO trains it.
+
+PPO from random weights spends most of its budget rediscovering what a planner already knows
+(which component next, which crane, which target), and on hall-4c it settles between the
+greedy and the prioritized planner. Cloning a planner first starts PPO from the planner's
+level instead (behaviour cloning; Pomerleau 1991, and the usual warm start of RL from
+demonstrations).
+
+- ``demonstrate`` plays ``episodes`` episodes of a teacher on the run's vector environment
+  (a ``SetVecEnv`` for the set policy, a ``CraneVecEnv`` for the MLP at either decision
+  level: the training run's own environments and reward, so the critic's targets are the
+  learner's) and keeps every real crane row: the observation (padded for the set policy),
+  the mask, the teacher's action and the discounted return that followed under the
+  learner's (shaped) reward.
+- ``save`` / ``load`` keep them in a ``.npz`` file with what they were made for, so that
+  several training seeds can share one (expensive) set of teacher episodes.
+- ``imitate`` is the step of a training run (``TrainConfig.imitate``): demonstrations on
+  copies of the run's environments that draw other reset seeds than its training copies
+  (or read from ``imitate_demos``), then ``clone``, with a summary for ``result.json``.
+- ``clone`` fits the policy to them: cross-entropy of the teacher's actions under the masked
+  logits (the actor) plus the squared error of the value on the returns, scaled by their
+  variance (the critic, so that PPO's first updates do not start from a random baseline).
+
+A teacher is ``make_teacher(env, seed) -> policy`` with ``policy(observations) -> {agent:
+action}`` for the run's ``MultiCraneEnv``, a policy of ``policies.factory`` such as
+``"prioritized"`` (either decision level) or ``"lookahead"`` (task level) (``multicrane
+train --imitate NAME`` passes it; this package never imports ``policies``). It is made for
+each episode; planners read the environment's state, so the observations it gets hold only
+each crane's ``action_mask``.
+"""
+
+from __future__ import annotations
+
+import copy
+import io
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch as th
+
+from multicrane.files import write_atomic
+
+DEMO_STREAM = 2  # the demonstration copies' seed stream: [run seed, DEMO_STREAM]
+
+
+@dataclass
+class Demonstrations:
+    """Rows of a teacher's episodes (one per real crane and decision round)."""
+
+    observations: np.ndarray  # (R, observation size) float32 (set policy: padded, ``set_obs``)
+    masks: np.ndarray  # (R, n_actions) bool
+    actions: np.ndarray  # (R,) int64: the teacher's (its labels, when the learner acted)
+    returns: np.ndarray  # (R,) float32: discounted return-to-go of the learner's reward
+    makespans: list[int | None]  # per finished episode (None: hit the step limit)
+
+    def __len__(self) -> int:
+        return len(self.actions)
+
+    def __add__(self, other: Demonstrations) -> Demonstrations:
+        """Both sets of rows (DAgger's aggregation)."""
+        join = lambda name: np.concatenate([getattr(self, name), getattr(other, name)])  # noqa: E731
+        return Demonstrations(*(join(name) for name in ARRAYS),
+                              makespans=self.makespans + other.makespans)  # fmt: skip
+
+    @property
+    def decisions(self) -> np.ndarray:
+        """Rows with a real choice (more than one allowed action)."""
+        return self.masks.sum(1) > 1
+
+
+class DemonstrationsError(ValueError):
+    """A demonstrations file that cannot be used here; the message says why."""
+
+
+ARRAYS = ("observations", "masks", "actions", "returns")
+
+
+def save(demos: Demonstrations, path: str | Path, meta: dict) -> None:
+    """Write ``demos`` and ``meta`` (what they were made for: teacher, site, reward...) to a
+    compressed ``.npz`` file, atomically."""
+    buffer = io.BytesIO()
+    arrays = {name: getattr(demos, name) for name in ARRAYS}
+    makespans = [-1 if m is None else m for m in demos.makespans]
+    np.savez_compressed(buffer, **arrays, makespans=np.array(makespans, dtype=np.int64),
+                        meta=np.array(json.dumps(meta, sort_keys=True)))  # fmt: skip
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(path, buffer.getvalue())
+
+
+def load(path: str | Path, meta: dict) -> Demonstrations:
+    """The demonstrations of a file written by ``save`` for the same ``meta`` (the stored
+    ``seed`` aside: any seed's teacher episodes serve); ``DemonstrationsError`` names the
+    file and what differs."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            stored = json.loads(str(data["meta"]))
+            arrays = {name: data[name] for name in ARRAYS}
+            makespans = [None if m < 0 else int(m) for m in data["makespans"]]
+    except (OSError, KeyError, ValueError) as exc:
+        raise DemonstrationsError(f"{path}: not a demonstrations file ({exc})") from None
+    differ = sorted(k for k in set(stored) | set(meta)
+                    if k != "seed" and stored.get(k) != meta.get(k))  # fmt: skip
+    if differ:
+        what = "; ".join(f"{k}: file {stored.get(k)!r} != run {meta.get(k)!r}" for k in differ)
+        raise DemonstrationsError(f"{path}: demonstrations of another setting ({what})")
+    return Demonstrations(**arrays, makespans=makespans)
+
+
+def demonstration_seed(run_seed: int) -> int:
+    """The seed of the demonstration copies: independent of the training copies' seeds."""
+    return int(np.random.SeedSequence([int(run_seed), DEMO_STREAM]).generate_state(1)[0])
+
+
+def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
+                learner: Callable | None = None) -> Demonstrations:  # fmt: skip
+    """``episodes`` finished episodes on ``venv``'s copies (a ``CraneVecEnv`` or ``SetVecEnv``,
+    seeded by the caller); episodes still running when the last one ends are left out.
+
+    Without ``learner`` the teacher acts. With ``learner(observations, masks) -> actions``
+    (one per row) the learner acts, and each row's label is what a teacher made for that
+    round on a copy of the copy's site would do there (DAgger, Ross, Gordon and Bagnell
+    2011: the teacher corrects the states the learner reaches); the returns are then the
+    learner's. A teacher made per round must need no memory of earlier rounds (the task-level
+    planners read only the site)."""
+    if episodes < 1:
+        raise ValueError(f"episodes must be at least 1, got {episodes}")
+    rows = venv.n_agents  # SB3 rows per copy (a SetVecEnv's spare rows included)
+    obs = venv.reset()
+    teachers: list = [None] * venv.n_copies
+    log: list[tuple] = []  # per round: obs, masks, actions, rewards, dones, real rows
+    makespans: list[int | None] = []
+    while len(makespans) < episodes:
+        masks = venv.action_masks()
+        labels = np.zeros(venv.num_envs, dtype=np.int64)
+        real = np.zeros(venv.num_envs, dtype=bool)
+        for c, env in enumerate(venv.envs):
+            seen = {a: {"action_mask": m} for a, m in env.action_masks().items()}
+            if learner is not None:  # a fresh teacher on a copy: the real site stays as it is
+                joint = make_teacher(copy.deepcopy(env), None)(seen)
+            else:
+                if teachers[c] is None:
+                    teachers[c] = make_teacher(env, None)
+                joint = teachers[c](seen)
+            for j, agent in enumerate(env.possible_agents):
+                labels[c * rows + j] = joint[agent]
+                real[c * rows + j] = True
+        actions = labels if learner is None else np.asarray(learner(obs, masks))
+        venv.step_async(actions)
+        after, rewards, dones, infos = venv.step_wait()
+        log.append((obs, masks, labels, rewards, dones, real))
+        for c in range(venv.n_copies):
+            if dones[c * rows]:  # the copy's episode ended (and the copy was reset)
+                info = infos[c * rows]
+                makespans.append(info["episode"]["l"] if info["is_success"] else None)
+                teachers[c] = None
+        obs = after
+    return _rows(log, gamma, makespans[:episodes])
+
+
+def _rows(log: list[tuple], gamma: float, makespans: list) -> Demonstrations:
+    """Discounted returns-to-go per row stream (backwards), then the real rows of finished
+    episodes."""
+    rewards = np.stack([x[3] for x in log])
+    dones = np.stack([x[4] for x in log])
+    keep = np.stack([x[5] for x in log])
+    returns = np.zeros_like(rewards)
+    g = np.zeros(rewards.shape[1], dtype=np.float64)
+    ended = np.zeros(rewards.shape[1], dtype=bool)  # a done follows (the episode finished)
+    for t in range(len(log) - 1, -1, -1):
+        ended |= dones[t]
+        g = rewards[t] + gamma * np.where(dones[t], 0.0, g)
+        returns[t] = g
+        keep[t] &= ended
+    pick = keep.ravel()
+    return Demonstrations(
+        observations=np.concatenate([x[0] for x in log])[pick],
+        masks=np.concatenate([x[1] for x in log])[pick],
+        actions=np.concatenate([x[2] for x in log])[pick],
+        returns=returns.ravel()[pick].astype(np.float32),
+        makespans=makespans,
+    )
+
+
+def clone(
+    policy,
+    demos: Demonstrations,
+    epochs: int = 10,
+    batch_size: int = 512,
+    learning_rate: float = 1e-3,
+    value_coef: float = 0.5,
+    seed: int = 0,
+) -> list[dict]:
+    """Fit ``policy`` (a maskable actor-critic) to ``demos`` (see the module doc); one dict of
+    losses per epoch, the last with ``agreement``: the share of decision rows whose greedy
+    action is the teacher's."""
+    if epochs < 1:
+        raise ValueError(f"epochs must be at least 1, got {epochs}")
+    optimizer = th.optim.Adam(policy.parameters(), lr=learning_rate)
+    scale = max(float(demos.returns.std()), 1.0) ** 2
+    rng = np.random.default_rng([int(seed), DEMO_STREAM])
+    n = len(demos)
+    history = []
+    policy.set_training_mode(True)
+    for epoch in range(epochs):
+        actor_sum = critic_sum = 0.0
+        order = rng.permutation(n)
+        for start in range(0, n, batch_size):
+            idx = order[start : start + batch_size]
+            obs = th.as_tensor(demos.observations[idx])
+            values, log_prob, _ = policy.evaluate_actions(
+                obs, th.as_tensor(demos.actions[idx]), action_masks=demos.masks[idx]
+            )
+            actor = -log_prob.mean()
+            critic = ((values.flatten() - th.as_tensor(demos.returns[idx])) ** 2).mean() / scale
+            loss = actor + value_coef * critic
+            optimizer.zero_grad()
+            loss.backward()
+            th.nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
+            optimizer.step()
+            actor_sum += actor.item() * len(idx)
+            critic_sum += critic.item() * len(idx)
+        history.append({"epoch": epoch + 1, "actor_nll": actor_sum / n,
+                        "critic_mse": critic_sum / n})  # fmt: skip
+    policy.set_training_mode(False)
+    history[-1]["agreement"] = agreement(policy, demos)
+    return history
+
+
+def agreement(policy, demos: Demonstrations, batch_size: int = 1024) -> float:
+    """The share of decision rows on which the policy's greedy action is the teacher's."""
+    rows = np.flatnonzero(demos.decisions)
+    if not len(rows):
+        return 1.0
+    same = 0
+    with th.no_grad():
+        for start in range(0, len(rows), batch_size):
+            idx = rows[start : start + batch_size]
+            dist = policy.get_distribution(th.as_tensor(demos.observations[idx]),
+                                           action_masks=demos.masks[idx])  # fmt: skip
+            greedy = dist.distribution.probs.argmax(-1).numpy()
+            same += int((greedy == demos.actions[idx]).sum())
+    return same / len(rows)
+
+
+def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dict:
+    """The imitation step of a fresh training run (``cfg`` a ``TrainConfig`` with
+    ``imitate``; ``params`` its learner settings): fit ``policy`` and return the summary."""
+    from multicrane.training.algorithms import algorithm
+    from multicrane.training.run_envs import make_vec_env, shaping_gamma
+    from multicrane.training.set_training import SET_COPIES, make_set_vec_env
+
+    start = time.perf_counter()
+    gamma = shaping_gamma(cfg, params)
+    if cfg.policy == "set":  # in this process: the teacher reads the copies' sites
+        venv = make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma, workers=1)
+    else:
+        venv = make_vec_env(cfg, algorithm(cfg.algo, cfg.paper), params)
+    seed = demonstration_seed(cfg.seed)
+    limits = venv.limits.to_dict() if cfg.policy == "set" else None
+    meta = {"teacher": cfg.imitate, "scenario": cfg.scenario, "cranes": cfg.n_cranes,
+            "decisions": cfg.decisions, "curriculum": cfg.curriculum, "limits": limits,
+            "episodes": cfg.imitate_episodes, "reward": cfg.reward, "events": cfg.events,
+            "max_steps": cfg.max_steps, "shaping": cfg.shaping_weight, "shaping_gamma": gamma,
+            "gamma": params["gamma"], "seed": seed}  # fmt: skip
+    path = cfg.imitate_demos
+    if path is not None and Path(path).exists():
+        demos = load(path, meta)
+        log(f"{cfg.name}: demonstrations from {path}")
+    else:
+        venv.seed(seed)
+        demos = demonstrate(venv, make_teacher, cfg.imitate_episodes, params["gamma"])
+        if path is not None:
+            save(demos, path, meta)
+    venv.close()
+    collected = time.perf_counter() - start
+    history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed)
+    finished = [m for m in demos.makespans if m is not None]
+    summary = {
+        "teacher": cfg.imitate,
+        "demonstrations": path,
+        "episodes": len(demos.makespans),
+        "teacher_makespan_mean": float(np.mean(finished)) if finished else None,
+        "teacher_finished": len(finished),
+        "rows": len(demos),
+        "decision_rows": int(demos.decisions.sum()),
+        "history": history,
+        "agreement": history[-1]["agreement"],
+        "collect_seconds": round(collected, 3),
+        "seconds": round(time.perf_counter() - start, 3),
+    }
+    log(
+        f"{cfg.name}: imitated {cfg.imitate} ({summary['episodes']} episodes, "
+        f"{summary['decision_rows']} decisions; greedy agreement "
+        f"{summary['agreement']:.1%}) in {summary['seconds']:.0f} s"
+    )
+    return summary
