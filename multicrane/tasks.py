@@ -58,6 +58,28 @@ class TaskList:
     def __len__(self) -> int:
         return len(self.pairs)
 
+    def conflicts(self, p: int) -> np.ndarray:
+        """The tasks that share task ``p``'s component or target (``p`` among them): once a
+        crane chooses ``p`` in a round, the others are refused to later cranes."""
+        return (self.comp == self.comp[p]) | (self.target == self.target[p])
+
+
+def exclusive_masks(masks: np.ndarray, choices, tasks: TaskList):
+    """(masks, choices) of a round's crane rows (``masks``: rows x (1 + padded tasks), crane
+    order; ``choices``: 0 wait, 1 + p task p) as the cranes see them deciding one after the
+    other: each choice removes the tasks it conflicts with (``TaskList.conflicts``) from the
+    later cranes' masks, and a choice so removed becomes 0 (the environment refuses it: the
+    crane waits)."""
+    out = np.array(masks, dtype=bool)
+    chosen = np.array(choices, dtype=np.int64)
+    n = len(tasks)
+    for k, a in enumerate(chosen):
+        if a > 0 and not out[k, a]:
+            chosen[k] = 0
+        elif a > 0:
+            out[k + 1 :, 1 : n + 1] &= ~tasks.conflicts(int(a) - 1)
+    return out, chosen
+
 
 class StaticPaths:
     """Shortest path lengths through the static site (walls and obstacles only), per

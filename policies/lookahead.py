@@ -76,8 +76,11 @@ class TaskLookahead:
         allowed = np.flatnonzero(book.allowed()[crane])
         nearest = allowed[np.argsort(book.static_len[crane][allowed], kind="stable")]
         out = [base]
+        tasks = book.tasks
         for action in [1 + int(p) for p in nearest[: self.candidates]] + [0]:
-            joint = {a: (0 if a != agent and x == action else x) for a, x in base.items()}
+            clash = tasks.conflicts(action - 1) if action else np.zeros(len(tasks), dtype=bool)
+            # Another crane the planner gave a task of the same component or target waits.
+            joint = {a: (0 if a != agent and x and clash[x - 1] else x) for a, x in base.items()}
             joint[agent] = action
             if joint not in out:
                 out.append(joint)

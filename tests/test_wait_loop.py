@@ -102,10 +102,13 @@ def test_wait_loop_needs_all_waits_a_moved_clock_and_the_same_observations(decis
 
 
 class _Waiter(SetModelPolicy):
-    """A set policy whose greedy choice is always to wait (the worst case of the loop)."""
+    """A set policy whose greedy choice is always to wait (the worst case of the loop): its
+    wait score beats everything; the others keep the network's order (for the break)."""
 
-    def _act(self, batch, masks):
-        return np.zeros(len(batch), dtype=np.int64)
+    def _scores(self, batch, masks):
+        scores = super()._scores(batch, masks)
+        scores[:, 0] = 1e9
+        return scores
 
 
 def test_a_team_that_always_waits_still_finishes_with_allowed_tasks_only(e2s2):

@@ -94,6 +94,9 @@ def register(sub) -> None:
     p.add_argument("--imitate-demos", default=None, metavar="FILE.npz",
                    help="with --imitate: keep the teacher's episodes in this file (read if it "
                    "holds the same setting, else written): seeds can share them")
+    p.add_argument("--keep-best", action="store_true",
+                   help="keep the model of the curve point with the best return on validation "
+                   "episodes (reset seeds 2,000,000...; needs --eval-every)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None, help="run directory")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
@@ -162,6 +165,7 @@ def build_config(args: argparse.Namespace):
         imitate_episodes=args.imitate_episodes,
         imitate_epochs=args.imitate_epochs,
         imitate_demos=args.imitate_demos,
+        keep_best=args.keep_best,
     )
 
 

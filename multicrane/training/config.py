@@ -61,7 +61,10 @@ class TrainConfig:
     (``multicrane.training.imitation``): ``imitate_episodes`` teacher episodes,
     ``imitate_epochs`` passes over them; ``imitate_demos``: a ``.npz`` file that keeps them
     (read when it exists and was made for the same setting, else written), so that several
-    seeds share one set of teacher episodes.
+    seeds share one set of teacher episodes. ``keep_best``: at each curve point, also
+    play ``eval_episodes`` validation episodes (reset seeds 2,000,000 ...; not with a
+    curriculum) and keep the model with the best validation return; the run's final model
+    is that one (early stopping; the curve shows every point).
     """
 
     scenario: str = "E2S2"
@@ -94,6 +97,7 @@ class TrainConfig:
     imitate_episodes: int = 64
     imitate_epochs: int = 10
     imitate_demos: str | None = None
+    keep_best: bool = False
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -140,6 +144,7 @@ class TrainConfig:
             )
         self._check_set_policy()
         self._check_imitation()
+        self._check_keep_best()
         self._check_events()
         from multicrane.crane_env import REWARDS
 
@@ -202,6 +207,14 @@ class TrainConfig:
                 raise ConfigError(
                     f"scenario={self.scenario!r}: a curriculum trains on 'set:train'"
                 )
+
+    def _check_keep_best(self) -> None:
+        if not isinstance(self.keep_best, bool):
+            raise ConfigError(f"keep_best={self.keep_best!r}: must be True or False")
+        if self.keep_best and not self.eval_every:
+            raise ConfigError("keep_best=True: needs eval_every > 0 (the points it chooses from)")
+        if self.keep_best and self.curriculum is not None:
+            raise ConfigError("keep_best=True: not with a curriculum (no validation sites)")
 
     def _check_imitation(self) -> None:
         if self.imitate is None:

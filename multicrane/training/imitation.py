@@ -43,6 +43,7 @@ import numpy as np
 import torch as th
 
 from multicrane.files import write_atomic
+from multicrane.tasks import exclusive_masks
 
 DEMO_STREAM = 2  # the demonstration copies' seed stream: [run seed, DEMO_STREAM]
 
@@ -145,9 +146,10 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
                 if teachers[c] is None:
                     teachers[c] = make_teacher(env, None)
                 joint = teachers[c](seen)
-            for j, agent in enumerate(env.possible_agents):
-                labels[c * rows + j] = joint[agent]
-                real[c * rows + j] = True
+            block = slice(c * rows, c * rows + len(env.possible_agents))
+            labels[block] = [joint[agent] for agent in env.possible_agents]
+            real[block] = True
+            _exclusive(env, masks, labels, block)
         actions = labels if learner is None else np.asarray(learner(obs, masks))
         venv.step_async(actions)
         after, rewards, dones, infos = venv.step_wait()
@@ -159,6 +161,15 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
                 teachers[c] = None
         obs = after
     return _rows(log, gamma, makespans[:episodes])
+
+
+def _exclusive(env, masks: np.ndarray, labels: np.ndarray, block: slice) -> None:
+    """At the task level, the masks and labels of a copy's crane rows as the trained policy
+    decides (``model_policy.exclusive_actions``; ``tasks.exclusive_masks``)."""
+    mode = getattr(env, "task_mode", None)
+    if mode is None:
+        return
+    masks[block], labels[block] = exclusive_masks(masks[block], labels[block], mode.book.tasks)
 
 
 def _rows(log: list[tuple], gamma: float, makespans: list) -> Demonstrations:
@@ -265,7 +276,7 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
             "decisions": cfg.decisions, "curriculum": cfg.curriculum, "limits": limits,
             "episodes": cfg.imitate_episodes, "reward": cfg.reward, "events": cfg.events,
             "max_steps": cfg.max_steps, "shaping": cfg.shaping_weight, "shaping_gamma": gamma,
-            "gamma": params["gamma"], "seed": seed}  # fmt: skip
+            "gamma": params["gamma"], "seed": seed, "claims": "exclusive"}  # fmt: skip
     path = cfg.imitate_demos
     if path is not None and Path(path).exists():
         demos = load(path, meta)

@@ -6,6 +6,11 @@
     policy = SharedModelPolicy(model, env)  # multi-agent mode: policy(observations) -> actions
 
 Both act greedily (``deterministic=True``); a masked model gets the environment's masks.
+At the task level the cranes of a round choose in crane order, and a crane's choice removes
+from the later cranes' options the tasks that share its component or target
+(``exclusive_actions``): the environment would refuse them, and cranes that see the same
+site (idle cranes without reach zones see exactly the same) would otherwise all pick the
+same task.
 A greedy team can reach a fixed point: every crane waits, time passes and nothing else
 changes, so the same observations give the same waits until the step limit. The multi-agent
 wrappers notice it (``WaitLoop``) and then start the one allowed task that the policy
@@ -94,10 +99,39 @@ def break_wait(scores: np.ndarray, wait: int) -> np.ndarray:
     return actions
 
 
+def exclusive_actions(scores: np.ndarray, masks: np.ndarray, tasks, deterministic: bool = True
+                      ) -> np.ndarray:  # fmt: skip
+    """One action per crane row (``scores``: rows x actions, crane order): each row's best
+    (or sampled) allowed action, after the earlier rows' tasks removed the tasks they conflict
+    with (``tasks``: the site's ``TaskList``; action ``1 + p`` is task ``p``)."""
+    import torch as th
+
+    masks = np.array(masks, dtype=bool)
+    n = len(tasks)
+    actions = np.zeros(len(scores), dtype=np.int64)
+    for k, row in enumerate(np.asarray(scores, dtype=np.float64)):
+        s = np.where(masks[k], row, -np.inf)
+        if deterministic:
+            a = int(np.argmax(s))
+        else:
+            a = int(th.distributions.Categorical(logits=th.as_tensor(s)).sample())
+        actions[k] = a
+        if a > 0:
+            masks[k + 1 :, 1 : n + 1] &= ~tasks.conflicts(a - 1)
+    return actions
+
+
+def task_list(env):
+    """The site's ``TaskList`` of a task-level environment (None at the motion level)."""
+    mode = getattr(getattr(env, "unwrapped", env), "task_mode", None)
+    return None if mode is None else mode.book.tasks
+
+
 class SharedModelPolicy:
     """One model acting for every crane of a ``MultiCraneEnv`` (parameter sharing):
-    ``policy(observations) -> {agent: action}``, all cranes in one batch; greedy, it breaks a
-    wait loop (``WaitLoop``) unless ``break_waits=False``."""
+    ``policy(observations) -> {agent: action}``, all cranes in one batch (at the task level,
+    exclusive claims: ``exclusive_actions``); greedy, it breaks a wait loop (``WaitLoop``)
+    unless ``break_waits=False``."""
 
     def __init__(self, model, env, deterministic: bool = True, break_waits: bool = True):
         self.model = model
@@ -109,8 +143,12 @@ class SharedModelPolicy:
     def __call__(self, observations: dict) -> dict:
         agents = list(observations)
         batch, masks = self._inputs(observations)
+        tasks = task_list(self.env)
         if self.loop is not None and self.loop.stuck(batch):
             actions = break_wait(self._scores(batch, masks), self.loop.wait)
+        elif tasks is not None:  # claims in a round are exclusive (see the module doc)
+            actions = exclusive_actions(self._scores(batch, masks), masks, tasks,
+                                        self.deterministic)  # fmt: skip
         else:
             actions = self._act(batch, masks)
         if self.loop is not None:

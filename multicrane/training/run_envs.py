@@ -16,7 +16,7 @@ from multicrane.rollout import evaluate, optimal_returns
 from multicrane.training.algorithms import Algorithm
 from multicrane.training.config import TrainConfig
 from multicrane.training.model_policy import model_policy
-from multicrane.training.seeding import evaluation_seeds
+from multicrane.training.seeding import VALIDATION_FIRST, evaluation_seeds
 from multicrane.training.set_training import (
     SET_COPIES,
     evaluate_on_sites,
@@ -65,9 +65,16 @@ def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
 # -- evaluation --------------------------------------------------------------------------------
 
 
-def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, optimal: bool):
+def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, optimal: bool,
+                   validation: bool = False):  # fmt: skip
     """Greedy episodes of the model on the evaluation seeds: (episodes, summary), with the
-    gap to the exact planner's returns on the same seeds when ``optimal`` (paper mode)."""
+    gap to the exact planner's returns on the same seeds when ``optimal`` (paper mode).
+    ``validation``: on the validation seeds instead (``VALIDATION_FIRST`` ...: choosing a
+    model on them leaves the evaluation episodes unseen)."""
+    if validation:
+        seeds = evaluation_seeds(episodes, VALIDATION_FIRST)
+        env = paper_env(cfg, algo) if cfg.paper else multi_env(cfg)
+        return evaluate(env, lambda e, s: model_policy(model, e, cfg.paper), seeds)
     seeds = evaluation_seeds(episodes)
     if cfg.curriculum is not None:  # held-out generated sites, one episode each
         sites = evaluation_sites(cfg, episodes)

@@ -16,6 +16,9 @@ def copy_seeds(seed: int | None, n: int) -> list[int | None]:
     return [int(s.generate_state(1)[0]) for s in np.random.SeedSequence(int(seed)).spawn(n)]
 
 
+VALIDATION_FIRST = 2_000_000  # validation episodes (model selection): never evaluation seeds
+
+
 def evaluation_seeds(n: int, first: int = 1_000_000) -> list[int]:
     """Reset seeds of evaluation episodes: ``first .. first + n - 1``, far from any seed a
     training copy draws in practice, and the same for every algorithm and run seed."""

@@ -48,6 +48,7 @@ from multicrane.training.run_envs import (
 from multicrane.training.set_training import make_set_model, set_hyperparameters
 
 RESULT = "result.json"
+BEST = "best.zip"  # keep_best: the model of the best validation point so far
 PACKAGES = (
     "multicrane",
     "numpy",
@@ -222,9 +223,25 @@ class Run:
             "train_return_mean": _train_return(self.model),
             "seconds": round(self.elapsed(), 3),
         }
+        if self.cfg.keep_best:
+            self._validate(point)
         self.progress["curve"].append(point)
         self.model.logger.record("eval/return_mean", point["return_mean"])
         self.model.logger.record("eval/success_rate", point["success_rate"])
+
+    def _validate(self, point: dict) -> None:
+        """``keep_best``: the point's validation return; a better one saves ``best.zip``."""
+        _, val = evaluate_model(self.model, self.cfg, self.algo, self.cfg.eval_episodes,
+                                optimal=False, validation=True)  # fmt: skip
+        point["validation_return_mean"] = val["return_mean"]
+        point["validation_success_rate"] = val["success_rate"]
+        best = self.progress.get("best")
+        if best is None or val["return_mean"] > best["validation_return_mean"]:
+            tmp = self.dir / BEST.replace(".zip", ".tmp.zip")
+            self.model.save(tmp)
+            tmp.replace(self.dir / BEST)
+            self.progress["best"] = {"step": point["step"],
+                                     "validation_return_mean": val["return_mean"]}  # fmt: skip
 
     # -- training --------------------------------------------------------------------------
 
@@ -291,6 +308,9 @@ class Run:
             or self.progress["curve"][-1]["step"] != self.model.num_timesteps
         ):
             self.evaluate_point()
+        if self.cfg.keep_best:  # the final model is the best validation point's
+            best = self.algo.cls.load(self.dir / BEST, device="cpu")
+            self.model.policy.load_state_dict(best.policy.state_dict())
         self.model.save(self.dir / "model.zip")
         start = time.perf_counter()
         episodes, summary = evaluate_model(
@@ -313,7 +333,7 @@ class Run:
             "eval_seconds": round(time.perf_counter() - start, 3),
             "steps_per_second": round(self.model.num_timesteps / max(train_seconds, 1e-9), 1),
             "sessions": self.progress["sessions"],
-            **({"imitation": self.progress["imitation"]} if "imitation" in self.progress else {}),
+            **{k: self.progress[k] for k in ("imitation", "best") if k in self.progress},
             **_curriculum(self.venv),
             "versions": versions(),
             "python": platform.python_version(),
