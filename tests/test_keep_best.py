@@ -66,3 +66,14 @@ def test_the_final_model_is_the_best_validation_point(tmp_path, monkeypatch):
     fresh = make_set_model(make_set_vec_env(cfg, 2, 0.99, workers=1), cfg.seed,
                            params(cfg.hyperparams), None).policy.state_dict()  # fmt: skip
     assert all(th.equal(a[k], fresh[k]) for k in a)
+
+
+def test_curriculum_validation_sites_are_never_training_or_test_sites():
+    from multicrane.training import curriculum as cur
+
+    valid = cur.validation_pool("grow", 10)
+    pools = set().union(
+        *(cur.stage_pool("grow", i) for i in range(len(cur.CURRICULA["grow"].stages)))
+    )
+    assert len(valid) == 10 and not set(valid) & pools
+    assert all(cur.VALIDATION_START <= s < 1_000_000 for s in valid)  # held-out sets: 1e6+

@@ -62,9 +62,10 @@ class TrainConfig:
     ``imitate_epochs`` passes over them; ``imitate_demos``: a ``.npz`` file that keeps them
     (read when it exists and was made for the same setting, else written), so that several
     seeds share one set of teacher episodes. ``keep_best``: at each curve point, also
-    play ``eval_episodes`` validation episodes (reset seeds 2,000,000 ...; not with a
-    curriculum) and keep the model with the best validation return; the run's final model
-    is that one (early stopping; the curve shows every point).
+    play ``eval_episodes`` validation episodes (reset seeds 2,000,000 ...; with a curriculum,
+    one on each of as many train sites outside its pools) and keep the model with the best
+    validation return; the run's final model is that one (early stopping; the curve shows
+    every point).
     """
 
     scenario: str = "E2S2"
@@ -213,8 +214,6 @@ class TrainConfig:
             raise ConfigError(f"keep_best={self.keep_best!r}: must be True or False")
         if self.keep_best and not self.eval_every:
             raise ConfigError("keep_best=True: needs eval_every > 0 (the points it chooses from)")
-        if self.keep_best and self.curriculum is not None:
-            raise ConfigError("keep_best=True: not with a curriculum (no validation sites)")
 
     def _check_imitation(self) -> None:
         if self.imitate is None:

@@ -103,6 +103,28 @@ def stage_pool(name: str, index: int) -> tuple[int, ...]:
     return tuple(out)
 
 
+VALIDATION_START = 500_000  # validation sites: train seeds from here (the pools scan 0..SCAN)
+
+
+@lru_cache(maxsize=16)
+def validation_pool(name: str, n: int) -> tuple[int, ...]:
+    """``n`` train seeds of sites that fit curriculum ``name`` (any stage's size), for model
+    selection (``TrainConfig.keep_best``): outside every stage's pool, so never trained on,
+    and outside the held-out sets, so never an evaluation site."""
+    plan = CURRICULA[name]
+    lo = min(stage.components[0] for stage in plan.stages)
+    hi = max(stage.components[1] for stage in plan.stages)
+    out: list[int] = []
+    for seed in TRAIN_SEEDS[VALIDATION_START:]:
+        if len(out) == n:
+            break
+        if _fits(seed, plan, Stage((lo, hi))):
+            env = MultiCraneEnv(_site(seed), decisions="task")
+            if plan.limits.fits(env.observation_layout):
+                out.append(seed)
+    return tuple(out)
+
+
 class SiteCurriculum:
     """The ``sites`` source of a ``SetVecEnv`` (see the module doc)."""
 

@@ -73,6 +73,9 @@ def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, opti
     model on them leaves the evaluation episodes unseen)."""
     if validation:
         seeds = evaluation_seeds(episodes, VALIDATION_FIRST)
+        if cfg.curriculum is not None:  # train sites outside the curriculum's pools
+            sites = evaluation_sites(cfg, episodes, validation=True)
+            return evaluate_on_sites(model, sites, seeds, cfg.max_steps, cfg.reward)
         env = paper_env(cfg, algo) if cfg.paper else multi_env(cfg)
         return evaluate(env, lambda e, s: model_policy(model, e, cfg.paper), seeds)
     seeds = evaluation_seeds(episodes)

@@ -122,9 +122,15 @@ def make_set_model(venv, seed: int, params: dict[str, Any], tensorboard_log: str
     )
 
 
-def evaluation_sites(cfg, episodes: int) -> list[tuple[str, Any]]:
+def evaluation_sites(cfg, episodes: int, validation: bool = False) -> list[tuple[str, Any]]:
     """(name, scenario) of the sites a curriculum run is evaluated on: the first
-    ``episodes`` sites of ``test-small`` (never trained on)."""
+    ``episodes`` sites of ``test-small`` (never trained on); ``validation``: as many train
+    sites outside the curriculum's pools (``curriculum.validation_pool``), for choosing a
+    model without looking at the test sites."""
+    if validation:
+        from multicrane.training.curriculum import _site, validation_pool
+
+        return [(f"train/{s}", _site(s)) for s in validation_pool(cfg.curriculum, episodes)]
     from multicrane.scenario_sets import members
 
     return [(m.name, m.scenario()) for m in members("test-small")[:episodes]]
