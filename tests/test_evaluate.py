@@ -101,7 +101,8 @@ def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
 def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
     pytest.importorskip("rerun")
     argv = ["demo", "--scenario", "e1s1", "--cranes", "2", "--decisions", decisions, "--steps",
-            "512", "--episodes", "2", "--bound-time", "2", "--out", str(tmp_path)]  # fmt: skip
+            "512", "--imitate-episodes", "4", "--episodes", "2", "--bound-time", "2",
+            "--out", str(tmp_path)]  # fmt: skip
     assert main(argv) == 0
     out = capsys.readouterr().out
     run_dir = tmp_path / f"e1s1-2c-{kind}-s0"
@@ -109,7 +110,10 @@ def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
                  "episode.json.gz"):  # fmt: skip
         assert (run_dir / name).is_file(), name
     policies = [r["policy"] for r in json.loads((run_dir / "evaluation.json").read_text())]
-    assert policies[1:] == ["prioritized", "greedy", "random"]
+    planners = ["prioritized", "lookahead"] if decisions == "task" else ["prioritized"]
+    assert policies[1:] == [*planners, "greedy", "random"]
+    if decisions == "task":  # imitated the look-ahead planner first
+        assert json.loads((run_dir / "result.json").read_text())["imitation"]["episodes"] == 4
     assert "gap to bound" in (run_dir / "evaluation.md").read_text()
     assert "replay:" in out
     # Again: the finished training is reused, not repeated.

@@ -12,16 +12,19 @@ crane of a site, compare it with the planners and the proven lower bound, and sa
 Needs the 'train' and 'replay' extras.
 
     multicrane demo                                   # hall-4c, 4 cranes, ~12 minutes
-    multicrane demo --scenario frame2-3c --steps 400000
+    multicrane demo --scenario frame2-3c
     multicrane demo --decisions motion --scenario e2s2 --cranes 2 --steps 1000000
 
-1. multicrane train: MaskablePPO with one policy shared by every crane, for a short budget
-   (resumes or reuses a finished run in --out). Task decisions (the default): the set policy
-   (docs/training.md), which reads the site's components and cranes as sets; --decisions
-   motion: today's MLP deciding every move.
-2. multicrane evaluate: the trained policy beside the prioritized planner, greedy and random
-   cranes, on the same episodes; then multicrane seed-table: the same as one table, with the
-   proven makespan lower bound of every episode (CP-SAT, --bound-time seconds each; 0: none).
+1. multicrane train: one policy shared by every crane (resumes or reuses a finished run in
+   --out). Task decisions (the default): the set policy (docs/training.md), which reads the
+   site's components and cranes as sets; it first imitates the look-ahead planner
+   (--imitate-episodes of its episodes), then MaskablePPO trains it on the makespan reward
+   for --steps crane decisions, keeping the best point on validation episodes. --decisions
+   motion: the MLP deciding every move, MaskablePPO from scratch.
+2. multicrane evaluate: the trained policy beside the prioritized and look-ahead planners,
+   greedy and random cranes, on the same episodes; then multicrane seed-table: the same as
+   one table, with the proven makespan lower bound of every episode (CP-SAT, --bound-time
+   seconds each; 0: none).
 3. multicrane replay record: one episode of the trained policy as a rerun replay (.rrd, open
    it with rerun FILE) and an episode record (.json.gz).
 """
@@ -34,7 +37,10 @@ def register(sub) -> None:
     p.add_argument("--cranes", type=int, default=4)
     p.add_argument("--decisions", default="task", choices=("task", "motion"),
                    help="task: the set policy picks tasks; motion: an MLP picks moves")  # fmt: skip
-    p.add_argument("--steps", type=int, default=300_000, help="crane decisions")
+    p.add_argument("--steps", type=int, default=None,
+                   help="crane decisions of PPO (default: 100,000 task, 300,000 motion)")
+    p.add_argument("--imitate-episodes", type=int, default=128,
+                   help="task decisions: the look-ahead planner's episodes imitated first")
     p.add_argument("--algo", default="maskable_ppo", choices=("ppo", "maskable_ppo"))
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes")
@@ -49,22 +55,27 @@ def run(args: argparse.Namespace) -> int:
 
     task = args.decisions == "task"
     kind = "set" if task else args.algo
+    steps = args.steps or (100_000 if task else 300_000)
     run_dir = args.out / f"{args.scenario}-{args.cranes}c-{kind}-s{args.seed}"
     where = ["--scenario", args.scenario, "--cranes", str(args.cranes)]
     level = ["--decisions", args.decisions]
     what = "the set policy, task decisions" if task else f"{args.algo}, motion decisions"
     print(f"== 1. train {what} (one policy shared by {args.cranes} cranes) on {args.scenario}")
+    recipe = ["--policy", "set", "--imitate", "lookahead", "--imitate-episodes",
+              str(args.imitate_episodes), "--imitate-epochs", "30", "--reward", "makespan",
+              "--shaping", "0", "--set", "learning_rate=1e-4", "--keep-best"]  # fmt: skip
     code = main(
-        ["train", *where, *level, *(["--policy", "set"] if task else []), "--algo", args.algo,
-         "--steps", str(args.steps), "--seed", str(args.seed),
-         "--eval-every", str(max(args.steps // 10, 1)), "--out", str(run_dir)]
+        ["train", *where, *level, *(recipe if task else []), "--algo", args.algo,
+         "--steps", str(steps), "--seed", str(args.seed),
+         "--eval-every", str(max(steps // 5 if task else steps // 10, 1)), "--out", str(run_dir)]
     )  # fmt: skip
     if code:
         return code
     print(f"\n== 2. evaluate ({args.episodes} episodes, the same seeds for every policy)")
     code = main(
-        ["evaluate", *where, *level, "--policy", str(run_dir), "prioritized", "greedy",
-         "random", "--episodes", str(args.episodes), "--json", str(run_dir / "evaluation.json")]
+        ["evaluate", *where, *level, "--policy", str(run_dir), "prioritized",
+         *(["lookahead"] if task else []), "greedy", "random", "--episodes", str(args.episodes),
+         "--json", str(run_dir / "evaluation.json")]
     )  # fmt: skip
     if code:
         return code
