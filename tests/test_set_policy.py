@@ -339,6 +339,16 @@ def test_marl_bench_latency_command(capsys):
     assert main(["marl-bench"]) == 2
 
 
+def test_marl_bench_throughput_settings():
+    from multicrane.cli.marl_bench import throughput
+
+    r = throughput("e2s2", 2, 64, "after-makespan")
+    assert r["setting"] == "after-makespan" and r["rows"] >= r["rows_per_update"] > 0
+    assert 0 < r["update_share"] < 1
+    with pytest.raises(ValueError, match="one of before, after"):
+        throughput("e2s2", 2, 64, "sideways")
+
+
 def test_train_command_options_make_a_set_config():
     from multicrane.cli import build_parser
     from multicrane.cli.train import build_config

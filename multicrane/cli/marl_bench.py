@@ -53,7 +53,7 @@ def register(sub) -> None:
         nargs="+",
         default=["before", "after"],
         help="throughput settings: before, after, after-attention (set policy "
-        "with one attention block)",
+        "with one attention block), after-makespan (the makespan reward, no shaping)",
     )
     p.set_defaults(func=run)
 
@@ -95,6 +95,12 @@ def latency(scenario: str, cranes: int, rounds: int, run_dir: str | None) -> dic
             "p95_ms": float(np.percentile(ms, 95)), "cpu_ms": float(cpu_ms.mean())}  # fmt: skip
 
 
+# before: the MLP defaults on the flat observation; after: the set policy's defaults;
+# after-attention: with one attention block; after-makespan: the makespan reward without
+# shaping (what the imitation recipe trains on, docs/training.md)
+SETTINGS = ("before", "after", "after-attention", "after-makespan")
+
+
 def throughput(scenario: str, cranes: int, steps: int, which: str, workers: int = 1) -> dict:
     """Training rows per second and the update's share of the wall time for one setting."""
     import torch as th
@@ -105,14 +111,15 @@ def throughput(scenario: str, cranes: int, steps: int, which: str, workers: int 
     th.set_num_threads(1)
     policy = "mlp" if which == "before" else "set"
     hyper = {"policy_kwargs": {"features_extractor_kwargs": {"heads": 4}}}
+    if which not in SETTINGS:
+        raise ValueError(f"--which {which!r}: one of {', '.join(SETTINGS)}")
+    reward = {"reward": "makespan", "shaping": 0.0} if which == "after-makespan" else {}
     cfg = TrainConfig(scenario, paper=False, n_cranes=cranes, algo="maskable_ppo",
                       decisions="task", policy=policy,
                       hyperparams=hyper if which == "after-attention" else {},
-                      workers=1 if which == "before" else workers)  # fmt: skip
+                      workers=1 if which == "before" else workers, **reward)  # fmt: skip
     run = Run(cfg, "unused", log=lambda *a: None)
     venv = make_vec_env(cfg, run.algo, run.params)
-    if which not in ("before", "after", "after-attention"):
-        raise ValueError(f"--which {which!r}: one of before, after, after-attention")
     if policy == "set":
         from multicrane.training.set_training import make_set_model
 
