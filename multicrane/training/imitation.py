@@ -31,7 +31,6 @@ each crane's ``action_mask``.
 
 from __future__ import annotations
 
-import copy
 import io
 import json
 import time
@@ -54,18 +53,12 @@ class Demonstrations:
 
     observations: np.ndarray  # (R, observation size) float32 (set policy: padded, ``set_obs``)
     masks: np.ndarray  # (R, n_actions) bool
-    actions: np.ndarray  # (R,) int64: the teacher's (its labels, when the learner acted)
+    actions: np.ndarray  # (R,) int64: the teacher's
     returns: np.ndarray  # (R,) float32: discounted return-to-go of the learner's reward
     makespans: list[int | None]  # per finished episode (None: hit the step limit)
 
     def __len__(self) -> int:
         return len(self.actions)
-
-    def __add__(self, other: Demonstrations) -> Demonstrations:
-        """Both sets of rows (DAgger's aggregation)."""
-        join = lambda name: np.concatenate([getattr(self, name), getattr(other, name)])  # noqa: E731
-        return Demonstrations(*(join(name) for name in ARRAYS),
-                              makespans=self.makespans + other.makespans)  # fmt: skip
 
     @property
     def decisions(self) -> np.ndarray:
@@ -116,17 +109,10 @@ def demonstration_seed(run_seed: int) -> int:
     return int(np.random.SeedSequence([int(run_seed), DEMO_STREAM]).generate_state(1)[0])
 
 
-def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
-                learner: Callable | None = None) -> Demonstrations:  # fmt: skip
-    """``episodes`` finished episodes on ``venv``'s copies (a ``CraneVecEnv`` or ``SetVecEnv``,
-    seeded by the caller); episodes still running when the last one ends are left out.
-
-    Without ``learner`` the teacher acts. With ``learner(observations, masks) -> actions``
-    (one per row) the learner acts, and each row's label is what a teacher made for that
-    round on a copy of the copy's site would do there (DAgger, Ross, Gordon and Bagnell
-    2011: the teacher corrects the states the learner reaches); the returns are then the
-    learner's. A teacher made per round must need no memory of earlier rounds (the task-level
-    planners read only the site)."""
+def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float) -> Demonstrations:
+    """``episodes`` finished teacher episodes on ``venv``'s copies (a ``CraneVecEnv`` or
+    ``SetVecEnv``, seeded by the caller); episodes still running when the last one ends are
+    left out."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
     rows = venv.n_agents  # SB3 rows per copy (a SetVecEnv's spare rows included)
@@ -136,24 +122,19 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
     makespans: list[int | None] = []
     while len(makespans) < episodes:
         masks = venv.action_masks()
-        labels = np.zeros(venv.num_envs, dtype=np.int64)
+        actions = np.zeros(venv.num_envs, dtype=np.int64)
         real = np.zeros(venv.num_envs, dtype=bool)
         for c, env in enumerate(venv.envs):
-            seen = {a: {"action_mask": m} for a, m in env.action_masks().items()}
-            if learner is not None:  # a fresh teacher on a copy: the real site stays as it is
-                joint = make_teacher(copy.deepcopy(env), None)(seen)
-            else:
-                if teachers[c] is None:
-                    teachers[c] = make_teacher(env, None)
-                joint = teachers[c](seen)
+            if teachers[c] is None:
+                teachers[c] = make_teacher(env, None)
+            joint = teachers[c]({a: {"action_mask": m} for a, m in env.action_masks().items()})
             block = slice(c * rows, c * rows + len(env.possible_agents))
-            labels[block] = [joint[agent] for agent in env.possible_agents]
+            actions[block] = [joint[agent] for agent in env.possible_agents]
             real[block] = True
-            _exclusive(env, masks, labels, block)
-        actions = labels if learner is None else np.asarray(learner(obs, masks))
+            _exclusive(env, masks, actions, block)
         venv.step_async(actions)
         after, rewards, dones, infos = venv.step_wait()
-        log.append((obs, masks, labels, rewards, dones, real))
+        log.append((obs, masks, actions, rewards, dones, real))
         for c in range(venv.n_copies):
             if dones[c * rows]:  # the copy's episode ended (and the copy was reset)
                 info = infos[c * rows]
@@ -163,13 +144,13 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
     return _rows(log, gamma, makespans[:episodes])
 
 
-def _exclusive(env, masks: np.ndarray, labels: np.ndarray, block: slice) -> None:
-    """At the task level, the masks and labels of a copy's crane rows as the trained policy
+def _exclusive(env, masks: np.ndarray, actions: np.ndarray, block: slice) -> None:
+    """At the task level, the masks and actions of a copy's crane rows as the trained policy
     decides (``model_policy.exclusive_actions``; ``tasks.exclusive_masks``)."""
     mode = getattr(env, "task_mode", None)
     if mode is None:
         return
-    masks[block], labels[block] = exclusive_masks(masks[block], labels[block], mode.book.tasks)
+    masks[block], actions[block] = exclusive_masks(masks[block], actions[block], mode.book.tasks)
 
 
 def _rows(log: list[tuple], gamma: float, makespans: list) -> Demonstrations:
