@@ -71,16 +71,9 @@ def evaluate_model(model, cfg: TrainConfig, algo: Algorithm, episodes: int, opti
     gap to the exact planner's returns on the same seeds when ``optimal`` (paper mode).
     ``validation``: on the validation seeds instead (``VALIDATION_FIRST`` ...: choosing a
     model on them leaves the evaluation episodes unseen)."""
-    if validation:
-        seeds = evaluation_seeds(episodes, VALIDATION_FIRST)
-        if cfg.curriculum is not None:  # train sites outside the curriculum's pools
-            sites = evaluation_sites(cfg, episodes, validation=True)
-            return evaluate_on_sites(model, sites, seeds, cfg.max_steps, cfg.reward)
-        env = paper_env(cfg, algo) if cfg.paper else multi_env(cfg)
-        return evaluate(env, lambda e, s: model_policy(model, e, cfg.paper), seeds)
-    seeds = evaluation_seeds(episodes)
-    if cfg.curriculum is not None:  # held-out generated sites, one episode each
-        sites = evaluation_sites(cfg, episodes)
+    seeds = evaluation_seeds(episodes, *([VALIDATION_FIRST] if validation else []))
+    if cfg.curriculum is not None:  # one episode per site: held-out, or validation train sites
+        sites = evaluation_sites(cfg, episodes, validation)
         return evaluate_on_sites(model, sites, seeds, cfg.max_steps, cfg.reward)
     env = paper_env(cfg, algo) if cfg.paper else multi_env(cfg)
     best = optimal_returns(env, seeds) if optimal and cfg.paper else None
