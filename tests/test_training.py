@@ -352,6 +352,18 @@ def test_paper_a2c_ppo_gamma(config, name):
     assert p["gamma"] == 0.9, f"{name} on {config}: gamma {p['gamma']}"
 
 
+@pytest.mark.parametrize("key", ["device", "seed", "verbose"])
+def test_trainer_owned_settings_are_refused(key):
+    """--set cannot move a model to a GPU (the rollout, imitation and deployed policies hand
+    it CPU tensors) nor override the run's seed or logging: a clear error, both tables."""
+    from multicrane.training.set_training import set_hyperparameters
+
+    with pytest.raises(ValueError, match=f"'{key}'"):
+        hyperparameters(PAPER_ALGORITHMS["dqn"], "E1S1", {key: "cuda"})
+    with pytest.raises(ValueError, match=f"'{key}' is set by the trainer"):
+        set_hyperparameters({key: "cuda"})
+
+
 def test_paper_models_carry_their_settings():
     """The built models (not only the tables) have the paper's optimizer and scaling."""
     venv = SeededDummyVecEnv([lambda: PaperAssemblyEnv("E1S1")] * 16)
@@ -367,6 +379,7 @@ def test_paper_models_carry_their_settings():
     obs = th.as_tensor(venv.reset()[:2])
     assert th.equal(extractor(obs), obs * 0.25)
     assert ppo.n_steps == 125 and ppo.batch_size == 64 and ppo.n_epochs == 4
+    assert a2c.device.type == ppo.device.type == "cpu"  # also where a GPU is visible
     venv.close()
 
 

@@ -173,6 +173,12 @@ def algorithm(name: str, paper: bool) -> Algorithm:
     return table[name]
 
 
+# Set by the trainer, not by --set: the seed and logging, and the device: the networks are
+# small and the environment is the hot path, so the models live on the CPU even where a GPU
+# is visible (the rollout, imitation and deployed policies hand them CPU tensors).
+FIXED_SETTINGS = frozenset({"seed", "tensorboard_log", "verbose", "device"})
+
+
 def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, Any]) -> dict:
     """The algorithm's defaults, DQN's gamma for the paper ``config``, then ``overrides``."""
     params = {k: (dict(v) if isinstance(v, dict) else v) for k, v in algo.defaults.items()}
@@ -181,10 +187,10 @@ def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, An
     accepted = set(inspect.signature(algo.cls.__init__).parameters) - {"self", "policy", "env"}
     accepted |= {"obs_scale", "features"}
     for key, value in overrides.items():
-        if key not in accepted or key in ("seed", "tensorboard_log", "verbose"):
+        if key not in accepted or key in FIXED_SETTINGS:
             raise ValueError(
                 f"hyperparameter {key!r} is not a setting of {algo.label}: one of "
-                f"{', '.join(sorted(accepted - {'seed', 'tensorboard_log', 'verbose'}))}"
+                f"{', '.join(sorted(accepted - FIXED_SETTINGS))}"
             )
         if key == "features":
             features_extractor(value)  # ValueError naming the choices
@@ -213,5 +219,6 @@ def make_model(algo: Algorithm, venv, seed: int, params: dict, tensorboard_log: 
             policy_kwargs=policy_kwargs,
             tensorboard_log=tensorboard_log,
             verbose=0,
+            device="cpu",
             **params,
         )

@@ -32,8 +32,13 @@ SET_COPIES = 8
 
 def set_hyperparameters(overrides: dict[str, Any]) -> dict[str, Any]:
     """``SET_PPO`` with ``overrides`` (policy_kwargs merged one level down)."""
+    from multicrane.training.algorithms import FIXED_SETTINGS
+
     params = {k: (dict(v) if isinstance(v, dict) else v) for k, v in SET_PPO.items()}
     for key, value in overrides.items():
+        if key in FIXED_SETTINGS:
+            raise ValueError(f"hyperparameter {key!r} is set by the trainer, not by --set "
+                             f"(fixed: {', '.join(sorted(FIXED_SETTINGS))})")  # fmt: skip
         if key == "policy_kwargs" and isinstance(value, dict):
             merged = dict(params["policy_kwargs"])
             for k, v in value.items():
@@ -118,6 +123,7 @@ def make_set_model(venv, seed: int, params: dict[str, Any], tensorboard_log: str
         policy_kwargs=policy_kwargs,
         tensorboard_log=tensorboard_log,
         verbose=0,
+        device="cpu",  # small networks; see algorithms.FIXED_SETTINGS
         **params,
     )
 
