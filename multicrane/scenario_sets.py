@@ -166,9 +166,18 @@ def resolve_set(text: str) -> tuple[tuple[str, Scenario], ...]:
     """The scenarios of ``set:NAME`` (``set:train:A-B``: train seeds A..B-1)."""
     name = str(text)[len(SET_PREFIX) :]
     if name.startswith("train:"):
+        return tuple((m.name, m.scenario()) for m in set_members(text))
+    return scenario_set(name)
+
+
+def set_members(text: str) -> list[Member]:
+    """The members of ``set:NAME`` or ``set:train:A-B``, not generated yet (a worker that
+    plays a few of the sites generates only those)."""
+    name = str(text)[len(SET_PREFIX) :]
+    if name.startswith("train:"):
         try:
             a, b = (int(v) for v in name[len("train:") :].split("-"))
         except ValueError:
             raise ValueError(f"{text!r}: write set:train:FIRST-END (seeds FIRST..END-1)") from None
-        return tuple((m.name, m.scenario()) for m in map(train_member, range(a, b)))
-    return scenario_set(name)
+        return [train_member(seed) for seed in range(a, b)]
+    return members(name)

@@ -96,6 +96,34 @@ def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
     assert "single-agent benchmark mode" in capsys.readouterr().err
 
 
+_TIMING = ("plan_seconds", "plan_ms_per_step", "plan_ms_per_crane", "plan_ms_max")
+
+
+def test_set_evaluation_in_workers_plays_the_same_episodes(tmp_path, capsys):
+    """--workers N spreads a set's (policy, site) pairs over processes; the rows (order,
+    episodes, summaries) are those of one process, timings aside."""
+    rows = {}
+    for workers in (1, 2):
+        out = tmp_path / f"w{workers}.json"
+        code = main(["evaluate", "--scenario", "set:train:0-3", "--decisions", "task",
+                     "--episodes", "2", "--policy", "prioritized", "random",
+                     "--workers", str(workers), "--json", str(out)])  # fmt: skip
+        assert code == 0, capsys.readouterr().err
+        rows[workers] = json.loads(out.read_text())
+    assert [r["policy"] for r in rows[2]] == ["prioritized", "random"]
+    for one, two in zip(rows[1], rows[2], strict=True):
+        assert len(one["episodes"]) == 3 * 2 and one["summary"]["sites"] == 3
+        strip = [[{k: v for k, v in e.items() if k not in _TIMING} for e in r["episodes"]]
+                 for r in (one, two)]  # fmt: skip
+        assert strip[0] == strip[1]
+        assert one["summary"]["makespan_mean"] == two["summary"]["makespan_mean"]
+    assert main(["evaluate", "--scenario", "set:train:0-3", "--policy", "random",
+                 "--workers", "0"]) == 2  # fmt: skip
+    assert "--workers must be at least 1" in capsys.readouterr().err
+    assert main(["evaluate", "--scenario", "e2s2", "--policy", "random", "--workers", "2"]) == 2
+    assert "give --scenario set:NAME" in capsys.readouterr().err
+
+
 @pytest.mark.long
 @pytest.mark.parametrize("decisions, kind", [("task", "set"), ("motion", "maskable_ppo")])
 def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from functools import lru_cache
 from pathlib import Path
 
 from multicrane.cli import progress
@@ -31,7 +32,8 @@ uses, 1000000..). Trained models act greedily. Prints, per policy: mean return Â
 error over episodes, success rate, mean steps to finish (finished episodes), mean steps, and
 in paper mode the gap to the exact planner's return on the same seeds. --scenario
 set:test-small, set:test-large or set:train:FIRST-END evaluates on every site of a scenario
-set (multicrane.scenario_sets): each row pools the episodes of all its sites (the set's means).
+set (multicrane.scenario_sets): each row pools the episodes of all its sites (the set's means);
+--workers N plays its (policy, site) pairs in N processes, with the same episodes and results.
 --events none|low|high plays the multi-agent mode with site events (docs/uncertainty.md);
 without it, the scenario's own [events] table, or the level the run directories were
 trained with (multicrane train --events).
@@ -46,6 +48,9 @@ def register(sub) -> None:
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--seed", type=int, default=None, help="first reset seed")
     p.add_argument("--json", type=Path, help="also write the results here")
+    p.add_argument("--workers", type=int, default=1,
+                   help="processes for a scenario set's (policy, site) pairs (one torch "
+                   "thread each; same results as 1)")  # fmt: skip
     p.set_defaults(func=run)
 
 
@@ -82,24 +87,97 @@ def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], a
                   events: str | None = None) -> list:  # fmt: skip
     """One row per policy over every site of the set ``args.scenario`` (``set:NAME``): its
     summary pools the episodes of all sites (so the means are the set's means)."""
-    from multicrane.rollout import evaluate, summarise
-    from multicrane.scenario_sets import resolve_set
+    from multicrane.rollout import summarise
+    from multicrane.scenario_sets import set_members
 
-    sites = resolve_set(args.scenario)
+    n_sites = len(set_members(args.scenario))
+    if args.workers > 1:
+        per_site, seconds = _play_in_workers(args, n_sites, seeds, events, advance)
+    else:
+        per_site, seconds = _play_here(args, factories, seeds, events, advance)
     rows = []
-    for make in factories:
-        start = time.perf_counter()
-        pooled: list[dict] = []
-        for _, scenario in sites:
-            env = make_env(None, scenario, args.cranes, args.auto, decisions=args.decisions,
-                           events=events)  # fmt: skip
-            episodes, _ = evaluate(env, make, seeds, counting(advance) if advance else None)
-            pooled += episodes
+    for p, make in enumerate(factories):
+        pooled = [e for s in range(n_sites) for e in per_site[p, s]]
         summary = summarise(pooled)
-        summary["seconds"] = round(time.perf_counter() - start, 3)
-        summary["sites"] = len(sites)
+        summary["seconds"] = round(seconds[p], 3)  # summed over its sites
+        summary["sites"] = n_sites
         rows.append({"policy": make.label, "summary": summary, "episodes": pooled})
     return rows
+
+
+def _play_here(args: argparse.Namespace, factories: list, seeds: list[int],
+               events: str | None, advance) -> tuple[dict, list[float]]:  # fmt: skip
+    """Every (policy, site) pair of a set evaluation in this process (as _play_in_workers)."""
+    from multicrane.rollout import evaluate
+    from multicrane.scenario_sets import resolve_set
+
+    per_site: dict[tuple[int, int], list[dict]] = {}
+    seconds = [0.0] * len(factories)
+    sites = resolve_set(args.scenario)
+    for p, make in enumerate(factories):
+        for s, (_, scenario) in enumerate(sites):
+            start = time.perf_counter()
+            env = make_env(None, scenario, args.cranes, args.auto, decisions=args.decisions,
+                           events=events)  # fmt: skip
+            progress_ = counting(advance) if advance else None
+            per_site[p, s], _ = evaluate(env, make, seeds, progress_)
+            seconds[p] += time.perf_counter() - start
+    return per_site, seconds
+
+
+def _play_in_workers(args: argparse.Namespace, n_sites: int, seeds: list[int],
+                     events: str | None, advance) -> tuple[dict, list[float]]:  # fmt: skip
+    """Every (policy, site) pair of a set evaluation in ``args.workers`` processes: the
+    episodes of each pair, and each policy's seconds summed over its sites."""
+    import multiprocessing
+    import os
+
+    os.environ.setdefault("OMP_NUM_THREADS", "1")  # inherited by the spawned workers
+    jobs = [(p, s) for s in reversed(range(n_sites)) for p in range(len(args.policy))]
+    setup = (args.scenario, args.policy, args.cranes, args.auto, args.decisions, events, seeds)
+    ctx = multiprocessing.get_context("spawn")  # torch is loaded here: no fork
+    per_site: dict[tuple[int, int], list[dict]] = {}
+    seconds = [0.0] * len(args.policy)
+    with ctx.Pool(args.workers, initializer=_worker_setup, initargs=setup) as pool:
+        for p, s, episodes, took in pool.imap_unordered(_worker_play, jobs):
+            per_site[p, s] = episodes
+            seconds[p] += took
+            if advance:
+                advance(len(episodes))
+    return per_site, seconds
+
+
+_WORKER: dict = {}  # one worker process's set, policies and settings (_worker_setup)
+
+
+@lru_cache(maxsize=8)
+def _worker_site(index: int):
+    """The set's site ``index``, generated in this worker the first time it plays it."""
+    return _WORKER["sites"][index].scenario()
+
+
+def _worker_setup(set_ref, specs, cranes, auto, decisions, events, seeds) -> None:
+    import torch
+
+    import policies
+    from multicrane.scenario_sets import set_members
+
+    torch.set_num_threads(1)
+    makers = [policies.factory(s) for s in specs]
+    _WORKER.update(sites=set_members(set_ref), makers=makers, cranes=cranes, auto=auto,
+                   decisions=decisions, events=events, seeds=seeds)  # fmt: skip
+
+
+def _worker_play(job: tuple[int, int]) -> tuple[int, int, list[dict], float]:
+    from multicrane.rollout import evaluate
+
+    p, s = job
+    w = _WORKER
+    start = time.perf_counter()
+    env = make_env(None, _worker_site(s), w["cranes"], w["auto"], decisions=w["decisions"],
+                   events=w["events"])  # fmt: skip
+    episodes, _ = evaluate(env, w["makers"][p], w["seeds"])
+    return p, s, episodes, time.perf_counter() - start
 
 
 def _pm(summary: dict) -> str:
@@ -134,6 +212,13 @@ def run(args: argparse.Namespace) -> int:
 
     if args.episodes < 1:
         return error("--episodes must be at least 1")
+    if args.workers < 1:
+        return error("--workers must be at least 1")
+    from multicrane.scenario_sets import is_set_ref
+
+    if args.workers > 1 and not (args.scenario and is_set_ref(args.scenario)):
+        return error("--workers plays the sites of a scenario set in parallel: give --scenario "
+                     "set:NAME (one scenario's episodes are played in one process)")  # fmt: skip
     total = args.episodes * len(args.policy)
     try:
         with progress.bar(total, "evaluate") as advance:
