@@ -64,21 +64,35 @@ class TaskList:
         return (self.comp == self.comp[p]) | (self.target == self.target[p])
 
 
-def exclusive_masks(masks: np.ndarray, choices, tasks: TaskList):
-    """(masks, choices) of a round's crane rows (``masks``: rows x (1 + padded tasks), crane
-    order; ``choices``: 0 wait, 1 + p task p) as the cranes see them deciding one after the
-    other: each choice removes the tasks it conflicts with (``TaskList.conflicts``) from the
-    later cranes' masks, and a choice so removed becomes 0 (the environment refuses it: the
-    crane waits)."""
+def exclusive_round(masks: np.ndarray, tasks: TaskList, choose) -> tuple[np.ndarray, np.ndarray]:
+    """A round's crane rows deciding one after the other (``masks``: rows x (1 + padded
+    tasks), crane order; action 0 waits, ``1 + p`` is task ``p``): ``choose(k, mask)`` gives
+    row ``k``'s action under the mask left to it; each task chosen removes the tasks it
+    conflicts with (``TaskList.conflicts``) from the later rows' masks, and a choice its mask
+    no longer allows becomes 0 (the environment would refuse it: the crane waits). Returns
+    (the masks as each row saw them, the actions)."""
     out = np.array(masks, dtype=bool)
-    chosen = np.array(choices, dtype=np.int64)
+    chosen = np.zeros(len(out), dtype=np.int64)
     n = len(tasks)
-    for k, a in enumerate(chosen):
-        if a > 0 and not out[k, a]:
-            chosen[k] = 0
-        elif a > 0:
-            out[k + 1 :, 1 : n + 1] &= ~tasks.conflicts(int(a) - 1)
+    for k in range(len(out)):
+        a = int(choose(k, out[k]))
+        if a > 0 and out[k, a]:
+            chosen[k] = a
+            out[k + 1 :, 1 : n + 1] &= ~tasks.conflicts(a - 1)
     return out, chosen
+
+
+def exclusive_masks(masks: np.ndarray, choices, tasks: TaskList):
+    """(masks, choices) of a round's crane rows with the given ``choices`` (a teacher's) as
+    the cranes see them deciding one after the other (``exclusive_round``)."""
+    choices = np.asarray(choices, dtype=np.int64)
+    return exclusive_round(masks, tasks, lambda k, mask: choices[k])
+
+
+def task_list(env) -> TaskList | None:
+    """The site's ``TaskList`` of a task-level environment (None at the motion level)."""
+    mode = getattr(getattr(env, "unwrapped", env), "task_mode", None)
+    return None if mode is None else mode.book.tasks
 
 
 class StaticPaths:

@@ -108,21 +108,28 @@ def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], a
 def _play_here(args: argparse.Namespace, factories: list, seeds: list[int],
                events: str | None, advance) -> tuple[dict, list[float]]:  # fmt: skip
     """Every (policy, site) pair of a set evaluation in this process (as _play_in_workers)."""
-    from multicrane.rollout import evaluate
     from multicrane.scenario_sets import resolve_set
 
     per_site: dict[tuple[int, int], list[dict]] = {}
     seconds = [0.0] * len(factories)
+    settings = (args.cranes, args.auto, args.decisions, events, seeds)
     sites = resolve_set(args.scenario)
     for p, make in enumerate(factories):
         for s, (_, scenario) in enumerate(sites):
-            start = time.perf_counter()
-            env = make_env(None, scenario, args.cranes, args.auto, decisions=args.decisions,
-                           events=events)  # fmt: skip
             progress_ = counting(advance) if advance else None
-            per_site[p, s], _ = evaluate(env, make, seeds, progress_)
-            seconds[p] += time.perf_counter() - start
+            per_site[p, s], took = _play_site(scenario, make, *settings, progress_)
+            seconds[p] += took
     return per_site, seconds
+
+
+def _play_site(scenario, make, cranes, auto, decisions, events, seeds, progress_=None):
+    """One policy's episodes on one site of a set, and the seconds they took."""
+    from multicrane.rollout import evaluate
+
+    start = time.perf_counter()
+    env = make_env(None, scenario, cranes, auto, decisions=decisions, events=events)
+    episodes, _ = evaluate(env, make, seeds, progress_)
+    return episodes, time.perf_counter() - start
 
 
 def _play_in_workers(args: argparse.Namespace, n_sites: int, seeds: list[int],
@@ -134,10 +141,11 @@ def _play_in_workers(args: argparse.Namespace, n_sites: int, seeds: list[int],
 
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # inherited by the spawned workers
     jobs = [(p, s) for s in reversed(range(n_sites)) for p in range(len(args.policy))]
-    setup = (args.scenario, args.policy, args.cranes, args.auto, args.decisions, events, seeds)
+    settings = (args.cranes, args.auto, args.decisions, events, seeds)
     ctx = multiprocessing.get_context("spawn")  # torch is loaded here: no fork
     per_site: dict[tuple[int, int], list[dict]] = {}
     seconds = [0.0] * len(args.policy)
+    setup = (args.scenario, args.policy, settings)
     with ctx.Pool(args.workers, initializer=_worker_setup, initargs=setup) as pool:
         for p, s, episodes, took in pool.imap_unordered(_worker_play, jobs):
             per_site[p, s] = episodes
@@ -156,7 +164,7 @@ def _worker_site(index: int):
     return _WORKER["sites"][index].scenario()
 
 
-def _worker_setup(set_ref, specs, cranes, auto, decisions, events, seeds) -> None:
+def _worker_setup(set_ref: str, specs: list[str], settings: tuple) -> None:
     import torch
 
     import policies
@@ -164,20 +172,13 @@ def _worker_setup(set_ref, specs, cranes, auto, decisions, events, seeds) -> Non
 
     torch.set_num_threads(1)
     makers = [policies.factory(s) for s in specs]
-    _WORKER.update(sites=set_members(set_ref), makers=makers, cranes=cranes, auto=auto,
-                   decisions=decisions, events=events, seeds=seeds)  # fmt: skip
+    _WORKER.update(sites=set_members(set_ref), makers=makers, settings=settings)
 
 
 def _worker_play(job: tuple[int, int]) -> tuple[int, int, list[dict], float]:
-    from multicrane.rollout import evaluate
-
     p, s = job
-    w = _WORKER
-    start = time.perf_counter()
-    env = make_env(None, _worker_site(s), w["cranes"], w["auto"], decisions=w["decisions"],
-                   events=w["events"])  # fmt: skip
-    episodes, _ = evaluate(env, w["makers"][p], w["seeds"])
-    return p, s, episodes, time.perf_counter() - start
+    episodes, took = _play_site(_worker_site(s), _WORKER["makers"][p], *_WORKER["settings"])
+    return p, s, episodes, took
 
 
 def _pm(summary: dict) -> str:

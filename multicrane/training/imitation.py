@@ -42,7 +42,7 @@ import numpy as np
 import torch as th
 
 from multicrane.files import write_atomic
-from multicrane.tasks import exclusive_masks
+from multicrane.tasks import exclusive_masks, task_list
 
 DEMO_STREAM = 2  # the demonstration copies' seed stream: [run seed, DEMO_STREAM]
 
@@ -147,10 +147,9 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float) -> De
 def _exclusive(env, masks: np.ndarray, actions: np.ndarray, block: slice) -> None:
     """At the task level, the masks and actions of a copy's crane rows as the trained policy
     decides (``model_policy.exclusive_actions``; ``tasks.exclusive_masks``)."""
-    mode = getattr(env, "task_mode", None)
-    if mode is None:
-        return
-    masks[block], actions[block] = exclusive_masks(masks[block], actions[block], mode.book.tasks)
+    tasks = task_list(env)
+    if tasks is not None:
+        masks[block], actions[block] = exclusive_masks(masks[block], actions[block], tasks)
 
 
 def _rows(log: list[tuple], gamma: float, makespans: list) -> Demonstrations:

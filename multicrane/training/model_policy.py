@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from multicrane.tasks import exclusive_round, task_list
 from multicrane.training.algorithms import algorithm
 from multicrane.training.config import CHECKPOINT, TrainConfig
 from multicrane.training.set_policy import BLOCKED
@@ -103,28 +104,18 @@ def exclusive_actions(scores: np.ndarray, masks: np.ndarray, tasks, deterministi
                       ) -> np.ndarray:  # fmt: skip
     """One action per crane row (``scores``: rows x actions, crane order): each row's best
     (or sampled) allowed action, after the earlier rows' tasks removed the tasks they conflict
-    with (``tasks``: the site's ``TaskList``; action ``1 + p`` is task ``p``)."""
+    with (``tasks``: the site's ``TaskList``; ``multicrane.tasks.exclusive_round``)."""
     import torch as th
 
-    masks = np.array(masks, dtype=bool)
-    n = len(tasks)
-    actions = np.zeros(len(scores), dtype=np.int64)
-    for k, row in enumerate(np.asarray(scores, dtype=np.float64)):
-        s = np.where(masks[k], row, -np.inf)
+    scores = np.asarray(scores, dtype=np.float64)
+
+    def choose(k: int, mask: np.ndarray) -> int:
+        s = np.where(mask, scores[k], -np.inf)
         if deterministic:
-            a = int(np.argmax(s))
-        else:
-            a = int(th.distributions.Categorical(logits=th.as_tensor(s)).sample())
-        actions[k] = a
-        if a > 0:
-            masks[k + 1 :, 1 : n + 1] &= ~tasks.conflicts(a - 1)
-    return actions
+            return int(np.argmax(s))
+        return int(th.distributions.Categorical(logits=th.as_tensor(s)).sample())
 
-
-def task_list(env):
-    """The site's ``TaskList`` of a task-level environment (None at the motion level)."""
-    mode = getattr(getattr(env, "unwrapped", env), "task_mode", None)
-    return None if mode is None else mode.book.tasks
+    return exclusive_round(masks, tasks, choose)[1]
 
 
 class SharedModelPolicy:
