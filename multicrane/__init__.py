@@ -12,12 +12,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from multicrane.crane_env import MultiCraneEnv
-from multicrane.paper_env import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
-from multicrane.scenario import Scenario, ScenarioError
-from multicrane.scenario_catalog import scenario_names
-from multicrane.scenario_loader import load_scenario
-from multicrane.types import Event, EventType, Kind, Move, Status
+from multicrane.core.codes import Event, EventType, Kind, Move, Status
+from multicrane.core.schema import Scenario, ScenarioError
+from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.envs.paper_env import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
+from multicrane.scenario.catalog import scenario_names
+from multicrane.scenario.loader import load_scenario
 
 __version__ = "0.1.0"
 
@@ -60,7 +60,7 @@ def _register() -> None:
             # for MaskablePPO and other callers, without ``.unwrapped``.
             gymnasium.register(
                 env_id,
-                entry_point="multicrane.paper_env:PaperAssemblyEnv",
+                entry_point="multicrane.envs.paper_env:PaperAssemblyEnv",
                 kwargs={"config": config},
                 order_enforce=False,
                 disable_env_checker=True,

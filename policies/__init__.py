@@ -2,7 +2,8 @@
 
 Every policy here acts through the environments' own interfaces (observations and masks, or
 the simulator state they expose), so any of them can be evaluated and recorded the same way
-(``multicrane.rollout``). ``make``, ``factory`` and ``names`` (``policies.registry``) build them
+(``multicrane.episodes.rollout``). ``make``, ``factory`` and ``names`` (``policies.registry``)
+build them
 by name under one seeding rule.
 """
 

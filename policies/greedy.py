@@ -2,23 +2,24 @@
 
 Each idle crane claims the ready component whose pick-up pose is nearest to a target it can
 fill; the held component follows a shortest path that treats every other component as a
-fixed obstacle (``multicrane.paths``); an arrived component is assembled at once. When its path
+fixed obstacle (``multicrane.sim.shortest_paths``); an arrived component is assembled at once. When
+its path
 is blocked (by a component that moved, or a crane that acted first this step) the crane waits
 and replans; after ``patience`` blocked steps in a row it makes a random legal move, which
 breaks the deadlocks two cranes can get into. It reads the simulator state (a planner, not a
 learned policy) and acts through the environment's normal actions and masks.
 
 With crane reach, the masks let a crane claim only what it can carry, and its shortest paths
-stay inside its zone (``multicrane.paths.distance_field`` with the crane).
+stay inside its zone (``multicrane.sim.shortest_paths.distance_field`` with the crane).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from multicrane.paths import UNREACHABLE, current_cells, distance_field, next_move
-from multicrane.simulator import NOBODY, Simulator
-from multicrane.types import ASSEMBLE, CLAIM_BASE, WAIT, Status
+from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, WAIT, Status
+from multicrane.sim.shortest_paths import UNREACHABLE, current_cells, distance_field, next_move
+from multicrane.sim.simulator import NOBODY, Simulator
 
 
 class GreedyPolicy:

@@ -3,9 +3,9 @@ to the nearest free target it can fill (ties: the target listed first)."""
 
 from __future__ import annotations
 
-from multicrane.paper_env import PaperAssemblyEnv
-from multicrane.paths import field_from, goal_positions, path_to
-from multicrane.simulator import NOBODY
+from multicrane.envs.paper_env import PaperAssemblyEnv
+from multicrane.sim.shortest_paths import field_from, goal_positions, path_to
+from multicrane.sim.simulator import NOBODY
 
 
 class PaperGreedyPolicy:

@@ -15,17 +15,17 @@ assemble ``7``.
         observations, *_ = env.step(planner(observations))
 
 This module is the *assignment rule*; the execution (paths, the reservation table, checks,
-repairs and the motion actions) is the library's carrier (``multicrane.carrier``), which the
+repairs and the motion actions) is the library's carrier (``multicrane.tasks.carrier``), which the
 task-level environment uses too (``policies.task_planners``).
 
 **Events** (``MultiCraneEnv(events=...)``, docs/uncertainty.md): the carrier is
-``multicrane.carrier_events.EventCarrier``. It notices a breakdown or a closure when it
+``multicrane.tasks.carrier_events.EventCarrier``. It notices a breakdown or a closure when it
 happens, freezes the components that cannot move (held by a broken crane, or inside a closed
 zone), treats closed cells as obstacles until they open, drops every plan in transit and
 replans them; a delivered component simply becomes claimable. A crane that is down takes no
 new component. Without events the planner is exactly the static one.
 
-**Paths and reservations** (``multicrane.reservations``): a planned move is never blocked,
+**Paths and reservations** (``multicrane.tasks.reservations``): a planned move is never blocked,
 whatever order the cranes act in. A claim lifts the component to its pick-up pose in the
 claim step, so the pose must be free of reservations then; the search starts there. A
 component in transit with no plan (after a failed search) holds its cells for ever until it
@@ -55,10 +55,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from multicrane.carrier import Carrier
-from multicrane.carrier_events import EventCarrier
-from multicrane.reservations import goal_position, manhattan
-from multicrane.simulator import NOBODY, Simulator
+from multicrane.sim.simulator import NOBODY, Simulator
+from multicrane.tasks.carrier import Carrier
+from multicrane.tasks.carrier_events import EventCarrier
+from multicrane.tasks.reservations import goal_position, manhattan
 
 
 def ranked_pairs(sim: Simulator, candidates, taken: set[int], rank: str, list_rank: dict):

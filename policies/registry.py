@@ -35,7 +35,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from multicrane.rollout import is_multi_agent
+from multicrane.episodes.rollout import is_multi_agent
 from policies.random_policy import RandomMoves, RandomPolicy
 
 POLICY_STREAM = 1
@@ -60,7 +60,7 @@ def policy_seed(seed: int | None) -> list[int] | None:
 
 
 class ExactPlan:
-    """The exact planner's episode (``multicrane.optimal``), planned at the first call
+    """The exact planner's episode (``multicrane.bounds.paper_optimum``), planned at the first call
     (right after the reset); then its actions one by one."""
 
     def __init__(self, env):
@@ -69,7 +69,7 @@ class ExactPlan:
 
     def __call__(self, observation=None) -> int:
         if self.actions is None:
-            from multicrane.optimal import plan
+            from multicrane.bounds.paper_optimum import plan
 
             self.actions = list(plan(env=self.env.unwrapped).actions)
         return self.actions.pop(0) if self.actions else 0

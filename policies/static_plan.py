@@ -34,9 +34,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from multicrane.event_view import event_view
-from multicrane.simulator import Simulator
-from multicrane.types import WAIT, Status
+from multicrane.core.codes import WAIT, Status
+from multicrane.sim.event_knowledge import event_view
+from multicrane.sim.simulator import Simulator
 from policies.prioritized import PrioritizedPlanner
 
 _ARRIVED, _ASSEMBLED = int(Status.ARRIVED), int(Status.ASSEMBLED)

@@ -1,6 +1,6 @@
 """Task-level planners: the prioritized rule, greedy and random, choosing tasks for idle cranes.
 
-They drive ``MultiCraneEnv(decisions="task")`` (``multicrane.tasks``: action ``0`` wait or
+They drive ``MultiCraneEnv(decisions="task")`` (``multicrane.tasks.book``: action ``0`` wait or
 continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
 
 - ``TaskPrioritized``: the prioritized planner's rule (``policies.prioritized``): ready pairs

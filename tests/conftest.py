@@ -16,9 +16,17 @@ selected with ``-m long``; CI runs them as their own step (``.ci/run``, docs/rel
 from __future__ import annotations
 
 import os
+import sys
+from pathlib import Path
 
 # Keep numerical libraries to one thread: the suite steps many small environments.
 os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+# The tests mirror the library's rooms (tests/sim, tests/envs, ...); a test module may share a
+# helper of another room's module by its name (``from test_rules import micro_site``).
+for _room in sorted(p for p in Path(__file__).parent.iterdir() if p.is_dir()):
+    if not _room.name.startswith((".", "_")) and str(_room) not in sys.path:
+        sys.path.append(str(_room))
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
@@ -47,8 +55,8 @@ def sizes(default: int, full: int) -> list:
 def reach_skip(name: str, n_cranes: int | None) -> str | None:
     """Why a shipped scenario cannot run with ``n_cranes`` cranes (a tower-crane scenario
     with crane reach needs enough of its own cranes), or None when it can."""
-    from multicrane.reach import crane_count_problem
-    from multicrane.scenario_loader import load_scenario
+    from multicrane.scenario.loader import load_scenario
+    from multicrane.sim.reach import crane_count_problem
 
     scenario = load_scenario(name)
     return crane_count_problem(scenario, scenario.cranes if n_cranes is None else n_cranes)
@@ -77,7 +85,7 @@ def masked_actions():
 
 
 # The readable infos (events and masks) that these tests assert on; libraries get numbers only
-# by default (multicrane.env_infos).
+# by default (multicrane.envs.infos).
 READABLE = {"info_events": True, "info_mask": True}
 
 

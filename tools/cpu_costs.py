@@ -18,7 +18,7 @@ import numpy as np
 
 import multicrane
 import policies
-from multicrane.scenario_loader import load_scenario
+from multicrane.scenario.loader import load_scenario
 
 
 def _random_steps(env, obs, rng, n: int, after=None) -> tuple[float, float]:

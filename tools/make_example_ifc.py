@@ -3,7 +3,7 @@
     python tools/make_example_ifc.py        (needs the ifc extra: pip install 'multicrane[ifc]')
 
 The model is a two-storey steel frame, 2 x 1 bays 4 m apart, 3 m storeys, built with
-``multicrane.ifc_build`` (fixed GlobalIds, so the import is the same every time), plus one
+``multicrane.ifc.build`` (fixed GlobalIds, so the import is the same every time), plus one
 slanted brace that the import must report and leave out. The scenario is what
 ``multicrane import-ifc scenarios/ifc/example-frame.ifc --cranes 2`` writes.
 """
@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from multicrane.ifc_build import frame
-from multicrane.ifc_import import import_ifc
+from multicrane.ifc.build import frame
+from multicrane.ifc.importer import import_ifc
 
 HERE = Path(__file__).resolve().parent.parent / "scenarios" / "ifc"
 

@@ -22,8 +22,8 @@ import numpy as np
 
 import multicrane
 import policies
-from multicrane.rollout import run_episode
-from multicrane.scenario_loader import load_scenario
+from multicrane.episodes.rollout import run_episode
+from multicrane.scenario.loader import load_scenario
 
 
 def measure(path: str) -> str:

@@ -15,7 +15,7 @@ A worker that dies (out of memory, a crash in native code) fails its run; a new 
 takes its place. A worker whose driver dies (even by SIGKILL, which no handler sees) notices
 within a second (a thread watching ``os.getppid()``): it stops its run as on a first Ctrl-C
 (SIGTERM: a checkpoint at the next update) and exits, or is ended after ``orphan_grace``
-seconds. Each run's directory lock (``multicrane.run_lock``) keeps a second sweep from
+seconds. Each run's directory lock (``multicrane.training.run_lock``) keeps a second sweep from
 training a run that such a worker still holds.
 """
 
@@ -34,7 +34,7 @@ from multiprocessing.connection import wait
 from typing import Any
 
 from multicrane.benchmark import interrupts
-from multicrane.benchmark.tasks import Outcome, Report, Task, execute_run
+from multicrane.benchmark.jobs import Outcome, Report, Task, execute_run
 
 
 def _watch_parent(parent: int, grace: float, poll: float = 0.5) -> None:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from multicrane.paper_env import PAPER_CONFIGS
+from multicrane.envs.paper_env import PAPER_CONFIGS
 
 ALGOS = ("dqn", "double_dqn", "a2c", "ppo", "maskable_ppo")
 # The four algorithms the paper's text describes (vanilla DQN, double DQN, A2C, PPO).

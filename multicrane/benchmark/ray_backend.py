@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from multicrane.benchmark import interrupts
-from multicrane.benchmark.tasks import Outcome, Report, Task, execute_run
+from multicrane.benchmark.jobs import Outcome, Report, Task, execute_run
 
 
 def import_ray():

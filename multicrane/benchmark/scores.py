@@ -41,8 +41,8 @@ def baselines(
 ) -> dict[str, Baseline]:
     """Each configuration's ``Baseline`` over the evaluation episodes every run's final
     evaluation uses (``episodes`` of them); ``make_random(env, seed)``: the random policy."""
-    from multicrane.paper_env import PaperAssemblyEnv
-    from multicrane.rollout import evaluate, optimal_returns
+    from multicrane.envs.paper_env import PaperAssemblyEnv
+    from multicrane.episodes.rollout import evaluate, optimal_returns
     from multicrane.training.seeding import evaluation_seeds
 
     seeds = evaluation_seeds(episodes)

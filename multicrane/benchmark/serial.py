@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from multicrane.benchmark.tasks import Outcome, Report, Task, execute_run
+from multicrane.benchmark.jobs import Outcome, Report, Task, execute_run
 
 
 class SerialBackend:

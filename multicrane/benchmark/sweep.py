@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from multicrane.benchmark.estimate import estimate_wall, format_duration, longest_first
+from multicrane.benchmark.jobs import Task
 from multicrane.benchmark.manifest import sweep_lock
 from multicrane.benchmark.profiles import Sweep, SweepError
 from multicrane.benchmark.runstate import (
@@ -25,7 +26,6 @@ from multicrane.benchmark.runstate import (
     prepare_run,
     store_result,
 )
-from multicrane.benchmark.tasks import Task
 
 
 @dataclass

@@ -31,7 +31,7 @@ reports rounds per second and the mean and 95th percentile milliseconds per roun
 task-level prioritized planner and for random legal tasks, over whole episodes (seeds 0, 1,
 ...) until ``--steps`` rounds have been timed (resets excluded).
 
-With ``--scaling`` it measures how the costs grow with the site (``multicrane.scaling``):
+With ``--scaling`` it measures how the costs grow with the site (``multicrane.reports.scaling``):
 load, reset, joint step per crane (200 random legal steps) and the prioritized planner's
 time per decision (first 100 decisions) on generated halls. The default grid (3, 21, 121
 components x 1, 4, 16 cranes) takes about a minute; ``--full`` runs 3-490 components x 1, 2,
@@ -53,7 +53,7 @@ def register(sub) -> None:
     p.add_argument("--decisions", choices=("motion", "task"), default="motion",
                    help="task: time task-level decision rounds (planning included)")
     p.add_argument("--scaling", action="store_true",
-                   help="costs of generated sites of growing size (multicrane.scaling)")
+                   help="costs of generated sites of growing size (multicrane.reports.scaling)")
     p.add_argument("--full", action="store_true", help="with --scaling: the full grid")
     p.add_argument("--plot", metavar="PNG", help="with --scaling: write the log-log plot")
     p.set_defaults(func=run)
@@ -122,7 +122,7 @@ def _runs(args: argparse.Namespace) -> list[tuple[str, object, int | None]]:
     """(label, scenario, cranes) of each run: every shipped scenario with 1 and 4 cranes
     (``--all``), each site of a named set (``set:NAME``), or the one scenario."""
     import multicrane
-    from multicrane.scenario_sets import is_set_ref, resolve_set
+    from multicrane.scenario.named_sets import is_set_ref, resolve_set
 
     if args.all:
         return [(name, name, n) for name in multicrane.scenario_names() for n in (1, 4)]
@@ -149,7 +149,7 @@ def run_task(args: argparse.Namespace) -> int:
 
 def run_scaling(args: argparse.Namespace) -> int:
     import policies
-    from multicrane import scaling
+    from multicrane.reports import scaling
 
     def planner(env, seed):
         return policies.make("prioritized", env, seed=seed)
@@ -191,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
         return error(str(e))
     print(f"{'scenario':<12} {'cranes':>6} {'mode':>7} {'joint steps/s':>14}")
     for name, scenario, n in runs:
-        from multicrane.reach import crane_count_problem
+        from multicrane.sim.reach import crane_count_problem
 
         loaded = multicrane.load_scenario(scenario)
         problem = None if n is None else crane_count_problem(loaded, n)

@@ -64,7 +64,7 @@ def add_environment_args(p: argparse.ArgumentParser, required: bool = True) -> N
     add_events_arg(p)
 
 
-EVENT_LEVELS = ("none", "low", "high")  # multicrane.events.LEVELS (not imported: startup time)
+EVENT_LEVELS = ("none", "low", "high")  # multicrane.sim.events.LEVELS (not imported: startup time)
 
 
 def add_events_arg(p: argparse.ArgumentParser) -> None:
@@ -142,7 +142,7 @@ def describe(env) -> str:
 
 
 def counting(advance):
-    """A ``progress`` for ``multicrane.rollout.evaluate``: passes the seeds through and
+    """A ``progress`` for ``multicrane.episodes.rollout.evaluate``: passes the seeds through and
     advances a bar (``multicrane.cli.progress``) by one after each episode."""
 
     def wrap(seeds):

@@ -18,7 +18,7 @@ baselines RL must beat.
     multicrane compare-planners --scenarios hall-4c frame2-3c --cranes 1 4 --seeds 3
     multicrane compare-planners --scenarios set:test-small --cranes 2 --no-bound --no-optimal
 
-A named scenario set (``set:NAME``, see ``multicrane.scenario_sets``; ``set:train:A-B`` for
+A named scenario set (``set:NAME``, see ``multicrane.scenario.named_sets``; ``set:train:A-B`` for
 train seeds A..B-1) stands for its sites, each a row of the tables.
 
 For each scenario (default: all) and crane count (default 1 2 3 4) it plays, in the claiming
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from multicrane.reports.planners import Setup, run_all
     from multicrane.reports.planners_page import markdown_page, text_report
     from multicrane.reports.provenance import command_line
-    from multicrane.scenario_sets import is_set_ref, resolve_set
+    from multicrane.scenario.named_sets import is_set_ref, resolve_set
 
     names = multicrane.scenario_names()
     scenarios, sites = [], {}

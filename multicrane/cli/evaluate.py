@@ -32,7 +32,8 @@ uses, 1000000..). Trained models act greedily. Prints, per policy: mean return Â
 error over episodes, success rate, mean steps to finish (finished episodes), mean steps, and
 in paper mode the gap to the exact planner's return on the same seeds. --scenario
 set:test-small, set:test-large or set:train:FIRST-END evaluates on every site of a scenario
-set (multicrane.scenario_sets): each row pools the episodes of all its sites (the set's means);
+set (multicrane.scenario.named_sets): each row pools the episodes of all its sites (the set's
+means);
 --workers N plays its (policy, site) pairs in N processes, with the same episodes and results.
 --events none|low|high plays the multi-agent mode with site events (docs/uncertainty.md);
 without it, the scenario's own [events] table, or the level the run directories were
@@ -57,8 +58,8 @@ def register(sub) -> None:
 def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
     """One row per policy: its label, summary and episodes (all on the same seeds)."""
     import policies
-    from multicrane.rollout import evaluate, optimal_returns
-    from multicrane.scenario_sets import is_set_ref
+    from multicrane.episodes.rollout import evaluate, optimal_returns
+    from multicrane.scenario.named_sets import is_set_ref
     from multicrane.training.seeding import evaluation_seeds
 
     paper = args.paper is not None
@@ -87,8 +88,8 @@ def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], a
                   events: str | None = None) -> list:  # fmt: skip
     """One row per policy over every site of the set ``args.scenario`` (``set:NAME``): its
     summary pools the episodes of all sites (so the means are the set's means)."""
-    from multicrane.rollout import summarise
-    from multicrane.scenario_sets import set_members
+    from multicrane.episodes.rollout import summarise
+    from multicrane.scenario.named_sets import set_members
 
     n_sites = len(set_members(args.scenario))
     if args.workers > 1:
@@ -108,7 +109,7 @@ def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], a
 def _play_here(args: argparse.Namespace, factories: list, seeds: list[int],
                events: str | None, advance) -> tuple[dict, list[float]]:  # fmt: skip
     """Every (policy, site) pair of a set evaluation in this process (as _play_in_workers)."""
-    from multicrane.scenario_sets import resolve_set
+    from multicrane.scenario.named_sets import resolve_set
 
     per_site: dict[tuple[int, int], list[dict]] = {}
     seconds = [0.0] * len(factories)
@@ -124,7 +125,7 @@ def _play_here(args: argparse.Namespace, factories: list, seeds: list[int],
 
 def _play_site(scenario, make, cranes, auto, decisions, events, seeds, progress_=None):
     """One policy's episodes on one site of a set, and the seconds they took."""
-    from multicrane.rollout import evaluate
+    from multicrane.episodes.rollout import evaluate
 
     start = time.perf_counter()
     env = make_env(None, scenario, cranes, auto, decisions=decisions, events=events)
@@ -168,7 +169,7 @@ def _worker_setup(set_ref: str, specs: list[str], settings: tuple) -> None:
     import torch
 
     import policies
-    from multicrane.scenario_sets import set_members
+    from multicrane.scenario.named_sets import set_members
 
     torch.set_num_threads(1)
     makers = [policies.factory(s) for s in specs]
@@ -215,7 +216,7 @@ def run(args: argparse.Namespace) -> int:
         return error("--episodes must be at least 1")
     if args.workers < 1:
         return error("--workers must be at least 1")
-    from multicrane.scenario_sets import is_set_ref
+    from multicrane.scenario.named_sets import is_set_ref
 
     if args.workers > 1 and not (args.scenario and is_set_ref(args.scenario)):
         return error("--workers plays the sites of a scenario set in parallel: give --scenario "

@@ -1,4 +1,4 @@
-"""``multicrane generate``: write a generated scenario file (``multicrane.generator``)."""
+"""``multicrane generate``: write a generated scenario file (``multicrane.scenario.generator``)."""
 
 from __future__ import annotations
 
@@ -52,10 +52,10 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from multicrane.generator import generate
-    from multicrane.scenario import ScenarioError
-    from multicrane.scenario_sets import members
-    from multicrane.scenario_toml import to_toml
+    from multicrane.core.schema import ScenarioError
+    from multicrane.scenario.generator import generate
+    from multicrane.scenario.named_sets import members
+    from multicrane.scenario.writer import to_toml
 
     try:
         if args.set is not None:

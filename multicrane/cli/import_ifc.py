@@ -1,4 +1,4 @@
-"""``multicrane import-ifc``: IFC building model to scenario file (``multicrane.ifc_import``)."""
+"""``multicrane import-ifc``: IFC building model to scenario file (``multicrane.ifc.importer``)."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def register(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from multicrane.ifc_import import IfcImportError, import_ifc
+    from multicrane.ifc.importer import IfcImportError, import_ifc
 
     try:
         result = import_ifc(args.model, cell=args.cell, yard=args.yard, cranes=args.cranes,

@@ -62,7 +62,7 @@ def latency(scenario: str, cranes: int, rounds: int, run_dir: str | None) -> dic
     """Milliseconds per crane decision of a set policy on ``scenario``."""
     import torch as th
 
-    from multicrane.crane_env import MultiCraneEnv
+    from multicrane.envs.crane_env import MultiCraneEnv
     from multicrane.training.model_policy import SetModelPolicy, load_run
     from multicrane.training.set_obs import SetLimits
     from multicrane.training.set_training import make_set_model, set_hyperparameters

@@ -27,7 +27,7 @@ algorithm) and the gap between that entry and the optimum. --markdown prints a w
 
 
 def register(sub) -> None:
-    from multicrane.paper_env import PAPER_CONFIGS
+    from multicrane.envs.paper_env import PAPER_CONFIGS
 
     p = sub.add_parser("paper-table", help="reference returns of the 16 paper configurations",
                        description=DESCRIPTION, **formatter())  # fmt: skip

@@ -79,7 +79,8 @@ def header(multi: bool) -> str:
 
 
 def line(label: str, s: dict, multi: bool) -> str:
-    """One policy's row, from the summary of its episodes (``multicrane.rollout.summarise``)."""
+    """One policy's row, from the summary of its episodes
+    (``multicrane.episodes.rollout.summarise``)."""
     text = (
         f"{label[:24]:<24} {s['return_mean']:>10.2f} ± {_num(s['return_sem'], '.2f'):<6}"
         f"{s['success_rate']:>8.0%} {_num(s.get('makespan_mean'), '.1f'):>9}"
@@ -96,11 +97,11 @@ def line(label: str, s: dict, multi: bool) -> str:
 def record(args: argparse.Namespace, env, name: str) -> None:
     """Run the first episode again, recording it (an episode record and/or a .rrd)."""
     import policies
-    from multicrane.record import record_episode
+    from multicrane.replay.record import record_episode
 
     policy = policies.make(name, env, seed=args.seed)
     if args.rrd:
-        from multicrane import viewer
+        from multicrane.replay import viewer
 
         rec = viewer.record_and_save(env, policy, args.seed, args.rrd, name)
         print(f"replay: {args.rrd}")
@@ -115,9 +116,9 @@ def run(args: argparse.Namespace) -> int:
     import multicrane
     import policies
     from multicrane.cli.set_runs import run_set
-    from multicrane.record import RecordError
-    from multicrane.rollout import evaluate
-    from multicrane.scenario_sets import is_set_ref
+    from multicrane.episodes.rollout import evaluate
+    from multicrane.replay.record import RecordError
+    from multicrane.scenario.named_sets import is_set_ref
 
     if args.episodes < 1:
         return error("--episodes must be at least 1")

@@ -83,7 +83,7 @@ def _guarded(command):
 
     def run(args: argparse.Namespace) -> int:
         import multicrane
-        from multicrane.record import RecordError
+        from multicrane.replay.record import RecordError
         from policies import PolicyError
 
         try:
@@ -112,7 +112,7 @@ def _episode(args: argparse.Namespace):
 
 
 def _stream(args: argparse.Namespace, name: str, scenario):
-    from multicrane import viewer
+    from multicrane.replay import viewer
 
     rec = viewer.new_recording(name)
     blueprint = viewer.blueprint(scenario, args.play_state)
@@ -135,7 +135,7 @@ def _summary(record) -> str:
 
 @_guarded
 def cmd_live(args: argparse.Namespace) -> int:
-    from multicrane import viewer
+    from multicrane.replay import viewer
 
     if not (args.spawn or args.connect is not None):
         args.spawn = True
@@ -152,13 +152,13 @@ def cmd_live(args: argparse.Namespace) -> int:
 
 @_guarded
 def cmd_record(args: argparse.Namespace) -> int:
-    from multicrane.record import record_episode
+    from multicrane.replay.record import record_episode
 
     if not (args.rrd or args.record):
         return error("give --rrd and/or --record")
     env, policy = _episode(args)
     if args.rrd:
-        from multicrane import viewer
+        from multicrane.replay import viewer
 
         record = viewer.record_and_save(env, policy, args.seed, args.rrd, args.policy,
                                         play_state=args.play_state)  # fmt: skip
@@ -174,8 +174,8 @@ def cmd_record(args: argparse.Namespace) -> int:
 
 @_guarded
 def cmd_replay(args: argparse.Namespace) -> int:
-    from multicrane import viewer
-    from multicrane.record import EpisodeRecord, RecordError
+    from multicrane.replay import viewer
+    from multicrane.replay.record import EpisodeRecord, RecordError
 
     try:
         record = EpisodeRecord.load(args.record)
@@ -207,8 +207,8 @@ def bench(
     .rrd file (collecting as it runs, then ``send_columns``) plus the episode record."""
     import multicrane
     import policies
-    from multicrane import viewer
-    from multicrane.record import record_episode
+    from multicrane.replay import viewer
+    from multicrane.replay.record import record_episode
 
     env = multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, max_steps=steps)
     make_policy = policies.factory(policy, paper=False)

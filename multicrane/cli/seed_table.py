@@ -44,11 +44,11 @@ def register(sub) -> None:
 def episode_bounds(rows, time_limit: float, sites: str | None = None) -> list[int]:
     """The proven makespan lower bound of every episode the rows played (one CP-SAT worker);
     ``sites``: the ``set:NAME`` whose members the episodes' scenario names are."""
-    from multicrane.bound import lower_bound
+    from multicrane.bounds.makespan import lower_bound
 
     named = {}
     if sites is not None:
-        from multicrane.scenario_sets import resolve_set
+        from multicrane.scenario.named_sets import resolve_set
 
         named = {name.split("/")[-1]: scenario for name, scenario in resolve_set(sites)}
     return [

@@ -10,8 +10,8 @@ from multicrane.cli.common import make_env
 def run_set(args: argparse.Namespace, makers: list, header: str, line) -> int:
     """``multicrane plan set:NAME``: every policy on every site of the set, episodes seeded
     from ``--seed``; prints each site's row and, per policy, the means over the set."""
-    from multicrane.rollout import evaluate
-    from multicrane.scenario_sets import resolve_set
+    from multicrane.episodes.rollout import evaluate
+    from multicrane.scenario.named_sets import resolve_set
 
     sites = resolve_set(args.scenario)
     seeds = list(range(args.seed, args.seed + args.episodes))

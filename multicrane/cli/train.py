@@ -206,8 +206,8 @@ def run(args: argparse.Namespace) -> int:
     if args.address is not None:
         return error(ValueError("--address is an option of --backend rllib"))
     from multicrane import ScenarioError
-    from multicrane.run_lock import RunLockedError
     from multicrane.training import ConfigError, train
+    from multicrane.training.run_lock import RunLockedError
 
     try:
         cfg = build_config(args)

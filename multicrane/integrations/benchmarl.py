@@ -42,7 +42,7 @@ from collections.abc import Callable
 from typing import Any
 
 import multicrane
-from multicrane.scenario_catalog import scenario_names
+from multicrane.scenario.catalog import scenario_names
 
 try:
     from benchmarl.environments import PettingZooClass, Task

@@ -25,7 +25,7 @@ Needs the ``rllib`` extra (``pip install "multicrane[rllib]"``: ray[rllib] 2.60,
   registry keeps the first Ray session's job id, so a name registered in a second session
   of the same process is not found by that session's workers.
 - ``ModulePolicy``: a trained module as a multicrane policy (``policy(observations) ->
-  {agent: action}``, greedy among legal actions) for ``multicrane.rollout``.
+  {agent: action}``, greedy among legal actions) for ``multicrane.episodes.rollout``.
 """
 
 from __future__ import annotations
@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 
 import multicrane
-from multicrane.paper_env import PAPER_CONFIGS, paper_env_id
-from multicrane.scenario_catalog import scenario_names
+from multicrane.envs.paper_env import PAPER_CONFIGS, paper_env_id
+from multicrane.scenario.catalog import scenario_names
 
 try:
     import gymnasium as gym

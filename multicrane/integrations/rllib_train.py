@@ -15,7 +15,7 @@ Training stops after the first iteration that reaches ``steps`` sampled environm
 ``checkpoint/`` (``Algorithm.save_to_path``; ``multicrane.integrations.rllib.load_module``
 reads the shared module back) and ``result.json``: iterations, steps, seconds, RLlib's
 episode return mean per iteration, and a greedy evaluation of the reloaded module on
-``eval_episodes`` fixed seeds (``multicrane.rollout.evaluate``).
+``eval_episodes`` fixed seeds (``multicrane.episodes.rollout.evaluate``).
 """
 
 from __future__ import annotations
@@ -67,8 +67,8 @@ def train_rllib(
     import ray
     import torch
 
+    from multicrane.episodes.rollout import evaluate
     from multicrane.integrations import rllib as mc_rllib
-    from multicrane.rollout import evaluate
 
     if steps < 1:
         raise ValueError(f"steps={steps}: expected at least 1")

@@ -1,9 +1,11 @@
 """The makespan lower bound beside a policy's makespan, for scenarios x crane counts.
 
-``bound_rows`` computes ``multicrane.bound.lower_bound`` for each (scenario, crane count) and,
+``bound_rows`` computes ``multicrane.bounds.makespan.lower_bound`` for each (scenario, crane count)
+and,
 if a policy is handed in (``make_policy(env, seed)``, e.g. ``policies.make`` bound to a name),
 plays the episode ``reset(seed=seed)`` starts (the same start the bound is for) through
-``multicrane.rollout.run_episode``; ``text_table`` and ``markdown_table`` format the rows with
+``multicrane.episodes.rollout.run_episode``; ``text_table`` and ``markdown_table`` format the rows
+with
 the gap ``(makespan - bound) / bound``. ``multicrane bound`` prints them.
 """
 
@@ -12,8 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
-from multicrane.bound import BoundResult, lower_bound
-from multicrane.scenario import Scenario
+from multicrane.bounds.makespan import BoundResult, lower_bound
+from multicrane.core.schema import Scenario
 
 MakePolicy = Callable[..., Callable]
 
@@ -50,8 +52,8 @@ def bound_row(
     workers: int = 2,
 ) -> Row:
     """The bound for one (scenario, crane count) and, with ``make_policy``, its makespan."""
-    from multicrane.crane_env import MultiCraneEnv
-    from multicrane.rollout import run_episode
+    from multicrane.envs.crane_env import MultiCraneEnv
+    from multicrane.episodes.rollout import run_episode
 
     bound = lower_bound(scenario, n_cranes, seed=seed, time_limit=time_limit, workers=workers)
     if make_policy is None:

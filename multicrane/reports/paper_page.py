@@ -146,7 +146,8 @@ def markdown_page(rows: list[Row], seeds: range, wall: float, command: str) -> s
         "",
         "Columns:",
         "",
-        "- *optimal return*: `multicrane.optimal.plan`, the exact best return of each episode, "
+        "- *optimal return*: `multicrane.bounds.paper_optimum.plan`, the exact best return of "
+        "each episode, "
         "mean ± standard error over episodes; *optimal success*: share of episodes it "
         "finishes; *optimal steps*: mean length of the optimal episodes.",
         "- *greedy*: `policies.paper_greedy.PaperGreedyPolicy` (the current component takes "

@@ -3,7 +3,8 @@
 For each configuration (E1S1 .. E4S4, ``PaperAssemblyEnv``) three policies handed in by the
 caller (``optimal``: an exact planner, ``greedy``, ``random``, each as
 ``make_policy(env, seed)``) play the episodes that ``reset(seed=s)`` starts, through
-``multicrane.rollout.evaluate``. A ``Row`` holds their returns, success rates and steps beside
+``multicrane.episodes.rollout.evaluate``. A ``Row`` holds their returns, success rates and steps
+beside
 the best entry of the paper's Table I and the gap between that entry and the optimum (Table I
 - optimum; negative is below it). E3S4's PPO entry is printed "140.18" in the paper; its minus
 sign was lost and it is read as -140.18. ``text_table`` prints the rows; ``paper_page`` writes
@@ -18,8 +19,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from multicrane.benchmark.reference import ALGORITHMS, SIGN_FIXED, TABLE_I
-from multicrane.paper_env import PaperAssemblyEnv
-from multicrane.rollout import evaluate
+from multicrane.envs.paper_env import PaperAssemblyEnv
+from multicrane.episodes.rollout import evaluate
 from multicrane.stats import sem
 
 POLICIES = ("optimal", "greedy", "random")

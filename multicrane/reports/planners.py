@@ -2,7 +2,8 @@
 
 The policies come in as arguments (``make_policy(env, seed)`` by name); nothing here knows a
 planner. Each (scenario, crane count, policy) plays the episodes ``reset(seed=first + i)``
-starts in ``MultiCraneEnv``'s default (claiming) mode, through ``multicrane.rollout``. For the
+starts in ``MultiCraneEnv``'s default (claiming) mode, through ``multicrane.episodes.rollout``. For
+the
 paper's configurations (e?s?) with one crane, an exact single-agent planner (paper mode,
 automatic claiming and assembly) gives the optimum on the same layouts; its step count is
 converted to the claiming mode's (``comparable``: steps - pass-over steps + 2 per component,
@@ -17,10 +18,10 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
-from multicrane.reach import crane_count_problem
-from multicrane.rollout import evaluate, run_episode
-from multicrane.scenario import Scenario
-from multicrane.scenario_loader import load_scenario
+from multicrane.core.schema import Scenario
+from multicrane.episodes.rollout import evaluate, run_episode
+from multicrane.scenario.loader import load_scenario
+from multicrane.sim.reach import crane_count_problem
 
 PLANNERS = ("greedy", "prioritized")
 PAPER = re.compile(r"^e[1-4]s[1-4]$")
@@ -82,7 +83,7 @@ class Optimal:
 
 @dataclass
 class Bound:
-    """The makespan lower bound of each planner seed's episode (``multicrane.bound``)."""
+    """The makespan lower bound of each planner seed's episode (``multicrane.bounds.makespan``)."""
 
     values: list[int]  # per seed, in the order of ``Setup.seeds_of("prioritized")``
     proven: int  # how many are the relaxation's proven optimum
@@ -149,7 +150,7 @@ def run_cell(
 
 def run_optimal(config: str, make_optimal: MakePolicy, seeds: range) -> Optimal:
     """The exact planner on the paper configuration ``config`` for each seed."""
-    from multicrane.paper_env import PaperAssemblyEnv
+    from multicrane.envs.paper_env import PaperAssemblyEnv
 
     env = PaperAssemblyEnv(config.upper())
     start = time.perf_counter()
@@ -170,7 +171,7 @@ def run_optimal(config: str, make_optimal: MakePolicy, seeds: range) -> Optimal:
 
 def run_bound(name: str | Scenario, n: int, seeds: range, time_limit: float) -> Bound:
     """The lower bound of each seed's episode of (scenario, cranes)."""
-    from multicrane.bound import lower_bound
+    from multicrane.bounds.makespan import lower_bound
 
     start = time.perf_counter()
     results = [lower_bound(name, n, seed=s, time_limit=time_limit) for s in seeds]

@@ -289,7 +289,8 @@ def markdown_page(res: Results, command: str) -> str:
         "collision-free path exists; replanning when the site differs from the plan.",
         "- **random**: `policies.random_policy.RandomPolicy`, uniform over the legal actions "
         "(seeded per episode with (seed, 1)).",
-        "- **optimal (auto) steps**: `multicrane.optimal.plan(config, seed)`, the exact optimum "
+        "- **optimal (auto) steps**: `multicrane.bounds.paper_optimum.plan(config, seed)`, the "
+        "exact optimum "
         "of the paper's single-agent *automatic* mode for the same layouts (e?s? with one crane "
         "only). It is a different process: there the first move lifts the component and the "
         "arrival assembles it; here a claim step lifts it and an assemble step finishes it. "

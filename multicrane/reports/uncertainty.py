@@ -3,9 +3,11 @@
 For every scenario x disruption level (``MultiCraneEnv(events=level)``: ``none``, ``low``,
 ``high``, see docs/uncertainty.md) x policy, episodes are played from reset seeds
 ``1000 * s + e`` (seed ``s`` of ``seeds``, episode ``e`` of ``episodes``) through
-``multicrane.rollout.run_episode``; a cell holds the completion rate and the makespan of the
+``multicrane.episodes.rollout.run_episode``; a cell holds the completion rate and the makespan of
+the
 completed episodes (mean and its 95 % confidence interval, ``multicrane.stats.ci95``). The
-undisturbed site's proven makespan lower bound (``multicrane.bound``, the same start poses) is
+undisturbed site's proven makespan lower bound (``multicrane.bounds.makespan``, the same start
+poses) is
 computed once per scenario and seed. Policies are handed in as ``make_policy(env, seed)``
 (``multicrane`` never imports ``policies``; the ``multicrane uncertainty`` command does); a
 policy that decides tasks (a learned task-level policy) is played with
@@ -85,8 +87,8 @@ def run_cell(
     seeds: Sequence[int], decisions: str = "motion",
 ) -> Cell:  # fmt: skip
     """Play one cell's episodes, one environment reused (at the ``decisions`` level)."""
-    from multicrane.crane_env import MultiCraneEnv
-    from multicrane.rollout import run_episode
+    from multicrane.envs.crane_env import MultiCraneEnv
+    from multicrane.episodes.rollout import run_episode
 
     began = time.perf_counter()
     env = MultiCraneEnv(scenario, n_cranes=n_cranes, events=level, decisions=decisions)
@@ -101,8 +103,9 @@ def run_cell(
 
 def undisturbed_bound(scenario, n_cranes: int | None, seeds: Sequence[int],
                       time_limit: float) -> Bound:  # fmt: skip
-    """``multicrane.bound.lower_bound`` of the undisturbed site for every seed (one worker)."""
-    from multicrane.bound import lower_bound
+    """``multicrane.bounds.makespan.lower_bound`` of the undisturbed site for every seed (one
+    worker)."""
+    from multicrane.bounds.makespan import lower_bound
 
     results = [lower_bound(scenario, n_cranes, s, time_limit, workers=1) for s in seeds]
     first = results[0]

@@ -7,8 +7,8 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from multicrane.envs.paper_env import PAPER_CONFIGS
 from multicrane.files import write_atomic
-from multicrane.paper_env import PAPER_CONFIGS
 
 CHECKPOINT = "checkpoint"  # the run directory's checkpoint folder (see training.trainer)
 DEFAULT_SHAPING = 1.0  # multi-agent mode; see multicrane.training.shaping
@@ -52,10 +52,10 @@ class TrainConfig:
     ``scenario`` is then ``"set:train"``), evaluated on ``set:test-small`` sites; ``workers``:
     processes running the set policy's environment copies (``multicrane.training.set_workers``).
     ``events``: the site events of the multi-agent environments, ``"none"``, ``"low"`` or
-    ``"high"`` (``multicrane.events``; None: the scenario's own ``[events]`` table, if any).
+    ``"high"`` (``multicrane.sim.events``; None: the scenario's own ``[events]`` table, if any).
     ``reward`` (multi-agent mode): the environments' reward, ``"paper"`` (the paper's team
     reward) or ``"makespan"`` (``-1`` per simulated step and the completion bonus: what the
-    makespan comparisons measure; ``multicrane.reward``). ``imitate`` (multi-agent
+    makespan comparisons measure; ``multicrane.envs.reward``). ``imitate`` (multi-agent
     MaskablePPO): the name of a teacher policy (``"prioritized"``, ``"lookahead"``) whose
     choices the fresh policy is fitted to before PPO starts
     (``multicrane.training.imitation``): ``imitate_episodes`` teacher episodes,
@@ -147,7 +147,7 @@ class TrainConfig:
         self._check_imitation()
         self._check_keep_best()
         self._check_events()
-        from multicrane.crane_env import REWARDS
+        from multicrane.envs.crane_env import REWARDS
 
         if self.reward not in REWARDS:
             raise ConfigError(f"reward={self.reward!r}: one of {', '.join(REWARDS)}")
@@ -230,7 +230,7 @@ class TrainConfig:
     def _check_events(self) -> None:
         if self.events is None:
             return
-        from multicrane.events import LEVELS
+        from multicrane.sim.events import LEVELS
 
         if self.events not in LEVELS:
             raise ConfigError(f"events={self.events!r}: one of {', '.join(LEVELS)} (or None)")

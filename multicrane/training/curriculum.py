@@ -6,7 +6,7 @@ can train on many sites at once. ``SiteCurriculum`` is the ``sites`` source of a
 the current stage's pool, and the stage grows when the policy finishes the sites it has:
 
 - a stage's pool is the first ``pool`` sites of the generator's ``train`` distribution
-  (seeds 0, 1, ... in order; ``multicrane.scenario_sets.train_member``) whose component count
+  (seeds 0, 1, ... in order; ``multicrane.scenario.named_sets.train_member``) whose component count
   lies in the stage's range and that fit the limits (2-4 cranes by default, as in
   ``test-small``); the held-out sets use other seeds, so no evaluation site is trained on;
 - the stage moves on once at least ``min_episodes`` episodes were played in it and the last
@@ -26,9 +26,9 @@ from collections import deque
 from dataclasses import dataclass
 from functools import lru_cache
 
-from multicrane.crane_env import MultiCraneEnv
-from multicrane.scenario import Scenario
-from multicrane.scenario_sets import TRAIN_SEEDS, component_count, train_member
+from multicrane.core.schema import Scenario
+from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.scenario.named_sets import TRAIN_SEEDS, component_count, train_member
 from multicrane.training.set_obs import SetLimits
 
 

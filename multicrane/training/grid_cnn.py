@@ -21,7 +21,7 @@ import torch as th
 from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-from multicrane.paper_env import N_PAPER_CHANNELS
+from multicrane.envs.paper_env import N_PAPER_CHANNELS
 
 
 def grid_shape(observation_space: spaces.Space, channels: int = N_PAPER_CHANNELS):

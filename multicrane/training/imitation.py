@@ -42,7 +42,7 @@ import numpy as np
 import torch as th
 
 from multicrane.files import write_atomic
-from multicrane.tasks import exclusive_masks, task_list
+from multicrane.tasks.book import exclusive_masks, task_list
 
 DEMO_STREAM = 2  # the demonstration copies' seed stream: [run seed, DEMO_STREAM]
 

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from multicrane.tasks import exclusive_round, task_list
+from multicrane.tasks.book import exclusive_round, task_list
 from multicrane.training.algorithms import algorithm
 from multicrane.training.config import CHECKPOINT, TrainConfig
 from multicrane.training.set_policy import BLOCKED
@@ -104,7 +104,7 @@ def exclusive_actions(scores: np.ndarray, masks: np.ndarray, tasks, deterministi
                       ) -> np.ndarray:  # fmt: skip
     """One action per crane row (``scores``: rows x actions, crane order): each row's best
     (or sampled) allowed action, after the earlier rows' tasks removed the tasks they conflict
-    with (``tasks``: the site's ``TaskList``; ``multicrane.tasks.exclusive_round``)."""
+    with (``tasks``: the site's ``TaskList``; ``multicrane.tasks.book.exclusive_round``)."""
     import torch as th
 
     scores = np.asarray(scores, dtype=np.float64)

@@ -12,7 +12,7 @@ from typing import Any
 
 from stable_baselines3.common.monitor import Monitor
 
-from multicrane.rollout import evaluate, optimal_returns
+from multicrane.episodes.rollout import evaluate, optimal_returns
 from multicrane.training.algorithms import Algorithm
 from multicrane.training.config import TrainConfig
 from multicrane.training.model_policy import model_policy
@@ -28,14 +28,14 @@ from multicrane.training.vec_env import CraneVecEnv, SeededDummyVecEnv
 
 
 def paper_env(cfg: TrainConfig, algo: Algorithm):
-    from multicrane.paper_env import PaperAssemblyEnv
+    from multicrane.envs.paper_env import PaperAssemblyEnv
 
     mask = algo.masked if cfg.mask_blocked_moves is None else cfg.mask_blocked_moves
     return PaperAssemblyEnv(cfg.scenario, mask_blocked_moves=mask)
 
 
 def multi_env(cfg: TrainConfig):
-    from multicrane.crane_env import MultiCraneEnv
+    from multicrane.envs.crane_env import MultiCraneEnv
 
     return MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, auto=cfg.auto,
                          max_steps=cfg.max_steps, decisions=cfg.decisions,

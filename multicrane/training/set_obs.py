@@ -1,7 +1,7 @@
 """Fixed-shape set observations: task observations of sites of any size padded to one shape.
 
 A set-based policy reads the component, crane and task tables of the task-level observation
-(``multicrane.task_observation``) as sets. SB3 needs one observation shape and one action
+(``multicrane.envs.task_observation``) as sets. SB3 needs one observation shape and one action
 count per vector environment, so every site's tables are padded to ``SetLimits`` (at most
 ``components`` C, ``cranes`` N and ``tasks`` P rows) and a three-number header says how many
 rows of each are real:
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from multicrane.task_observation import (
+from multicrane.envs.task_observation import (
     COMPONENT_FEATURES,
     CRANE_FEATURES,
     TASK_FEATURES,

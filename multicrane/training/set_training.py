@@ -57,7 +57,7 @@ def limits_of(cfg) -> SetLimits:
         return CURRICULA[cfg.curriculum].limits
     if cfg.curriculum is not None:
         return SetLimits(**cfg.set_limits)
-    from multicrane.crane_env import MultiCraneEnv
+    from multicrane.envs.crane_env import MultiCraneEnv
 
     env = MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, decisions="task",
                         events=cfg.events)  # fmt: skip
@@ -86,7 +86,7 @@ def make_set_vec_env(cfg, n_envs: int, gamma: float, workers: int | None = None)
         from multicrane.training.set_workers import WorkerSetVecEnv
 
         return WorkerSetVecEnv(_Blocks(cfg, gamma), n_envs, workers)
-    from multicrane.crane_env import MultiCraneEnv
+    from multicrane.envs.crane_env import MultiCraneEnv
     from multicrane.training.set_vec_env import SetVecEnv
 
     limits = limits_of(cfg)
@@ -137,15 +137,15 @@ def evaluation_sites(cfg, episodes: int, validation: bool = False) -> list[tuple
         from multicrane.training.curriculum import _site, validation_pool
 
         return [(f"train/{s}", _site(s)) for s in validation_pool(cfg.curriculum, episodes)]
-    from multicrane.scenario_sets import members
+    from multicrane.scenario.named_sets import members
 
     return [(m.name, m.scenario()) for m in members("test-small")[:episodes]]
 
 
 def evaluate_on_sites(model, sites, seeds, max_steps: int | None = None, reward: str = "paper"):
     """Greedy episodes of a set model, one per (site, seed) pair: (episodes, summary)."""
-    from multicrane.crane_env import MultiCraneEnv
-    from multicrane.rollout import run_episode, summarise
+    from multicrane.envs.crane_env import MultiCraneEnv
+    from multicrane.episodes.rollout import run_episode, summarise
     from multicrane.training.model_policy import SetModelPolicy
 
     episodes = []

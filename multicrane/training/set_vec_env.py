@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from multicrane.crane_env import MultiCraneEnv
+from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.training.set_obs import HEADER, Padder, SetLimits
 from multicrane.training.shaping import DistancePotential
 from multicrane.training.vec_env import CraneVecEnv

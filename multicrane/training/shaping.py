@@ -23,7 +23,7 @@ policy-invariant under a learner discount below 1, but without the constant part
 
 The multi-agent vector environment (``multicrane.training.vec_env.CraneVecEnv``) adds the
 term itself; ``ShapedPaperEnv`` adds it to the single-agent benchmark environment
-(``multicrane.paper_env.PaperAssemblyEnv``), whose simulator has one crane.
+(``multicrane.envs.paper_env.PaperAssemblyEnv``), whose simulator has one crane.
 """
 
 from __future__ import annotations
@@ -31,10 +31,10 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-from multicrane.grid_search import breadth_first, fits_everywhere
-from multicrane.paths import current_cells, goal_positions
-from multicrane.simulator import FREE, NOBODY, Simulator
-from multicrane.types import Status
+from multicrane.core.codes import Status
+from multicrane.sim.grid_search import breadth_first, fits_everywhere
+from multicrane.sim.shortest_paths import current_cells, goal_positions
+from multicrane.sim.simulator import FREE, NOBODY, Simulator
 
 _ASSEMBLED = int(Status.ASSEMBLED)
 _ARRIVED = int(Status.ARRIVED)
@@ -191,7 +191,8 @@ class PathPotential:
     """``phi`` with path lengths instead of Manhattan distances (``potential="path"``).
 
     A component in transit counts the moves of a shortest collision-free path
-    (``multicrane.paths.distance_field``) from where it is to the nearest goal pose of a free
+    (``multicrane.sim.shortest_paths.distance_field``) from where it is to the nearest goal pose of
+    a free
     compatible target, with every component not in transit (and the obstacles) fixed; a
     component in the yard counts the same from its pick-up pose, measured once at reset.
     Unlike the Manhattan distance this has no local minimum in front of an obstacle or under

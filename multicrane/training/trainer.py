@@ -5,7 +5,7 @@ random-generator states, and the replay buffer for DQN), written atomically at u
 boundaries every ``checkpoint_every`` steps and when interrupted (SIGINT/SIGTERM, or
 ``stop_at``; kept with the previous one and recovered on resume, see
 ``multicrane.training.checkpoints``); ``tb/`` (TensorBoard); ``run.lock`` while a process
-trains it (``multicrane.run_lock``); and, once finished, ``model.zip`` and ``result.json``.
+trains it (``multicrane.training.run_lock``); and, once finished, ``model.zip`` and ``result.json``.
 
 Resuming loads the checkpoint and continues exactly where it stopped: the environment copies,
 the last observations and every random generator come back, so a run interrupted and
@@ -31,7 +31,6 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 
 from multicrane.files import write_json_atomic
-from multicrane.run_lock import RunLock
 from multicrane.training.algorithms import algorithm, hyperparameters, make_model
 from multicrane.training.checkpoints import (
     checkpoint_complete,
@@ -45,6 +44,7 @@ from multicrane.training.run_envs import (
     make_vec_env,
     paper_env,  # noqa: F401 (imported from here)
 )
+from multicrane.training.run_lock import RunLock
 from multicrane.training.set_training import make_set_model, set_hyperparameters
 
 RESULT = "result.json"

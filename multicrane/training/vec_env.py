@@ -26,7 +26,7 @@ import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 
-from multicrane.crane_env import MultiCraneEnv
+from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.training.seeding import copy_seeds
 from multicrane.training.shaping import DistancePotential
 

@@ -1,0 +1,277 @@
+"""IFC to scenario: a building model read, snapped to the grid and laid out as a site.
+
+Needs the ``ifc`` extra (``pip install 'multicrane[ifc]'``). ``import_ifc(path, cell=1.0,
+yard="one", cranes=1, panels="components")`` reads the model (``multicrane.ifc.read``), snaps
+its columns, beams and panels to cells of ``cell`` metres (``multicrane.ifc.snap``), lays
+the yard out with the generator's rule (``multicrane.scenario.generator_yard``: components lying in
+lanes at ``z = 1`` on one, two or all sides of a construction area one cell larger than the
+building's plan extent), writes the file (``multicrane.ifc.scenario_text``) and loads it with the
+strict loader (every load check, solvability included). The site is as high as the building
+plus its longest column (a standing column can be carried over the finished building), and
+beams are lifted to the top of the site, as in generated scenarios. The list order is
+buildable: by height, columns before the beams and panels at their top.
+
+Slabs, walls and plates (``panels``): ``"components"`` (panel components ``kind = "slab"`` /
+``"wall"`` given by two opposite corner cells, lying flat in an extra yard strip; a wall on
+the ground gets a foundation strip under it), ``"obstacles"`` (their cells, less any column or
+beam target, become obstacle boxes) or ``"skip"`` (listed in the skip report).
+Everything left out is in ``IfcImport.skipped`` with its type, GlobalId, name and reason.
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from multicrane.core.codes import Kind
+from multicrane.core.schema import (
+    Box,
+    Cell,
+    ComponentSpec,
+    RewardSpec,
+    Scenario,
+    ScenarioError,
+)
+from multicrane.ifc.read import IfcImportError, Skipped, read_ifc
+from multicrane.ifc.scenario_text import PanelSpec, scenario_text
+from multicrane.ifc.snap import Building, Grid, Part, snap
+from multicrane.scenario import generator_yard
+from multicrane.scenario.limits import MAX_SITE_CELLS
+from multicrane.scenario.loader import parse_scenario
+from multicrane.sim import geometry
+
+PANEL_MODES = ("components", "obstacles", "skip")
+YARDS = ("one", "two", "around")
+MAX_HEIGHT = 64
+
+
+@dataclass
+class IfcImport:
+    """An imported model: the file text, its scenario (None when not loaded) and the report."""
+
+    text: str
+    scenario: Scenario | None
+    building: Building
+    ids: dict[int, str]  # part index (Building.parts) -> component id
+    skipped: list[Skipped]
+    schema: str
+    obstacle_parts: list[int]  # parts that became obstacles
+    grid: Grid  # where the site's cells lie in the model (metres)
+
+
+def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: int = 1,
+               panels: str = "components", load: bool = True) -> IfcImport:  # fmt: skip
+    """The scenario of the IFC model at ``path`` (module docstring). ``load=False`` returns
+    the text without loading it (``scenario`` is None)."""
+    if not cell > 0:
+        raise IfcImportError(f"cell size {cell!r}: must be a positive number of metres")
+    if yard not in YARDS:
+        raise IfcImportError(f"yard {yard!r}: must be one of {', '.join(YARDS)}")
+    if panels not in PANEL_MODES:
+        raise IfcImportError(f"panels {panels!r}: must be one of {', '.join(PANEL_MODES)}")
+    if not isinstance(cranes, int) or cranes < 1:
+        raise IfcImportError(f"cranes {cranes!r}: must be an integer >= 1")
+    name = Path(path).stem
+    schema, elements, skipped = read_ifc(path, cell)
+    if not any(e.role == "column" for e in elements):
+        found = sum(s.ifc_type == "IfcColumn" for s in skipped)
+        what = f"none of its {found} IfcColumn elements is usable" if found else "no IfcColumn"
+        raise IfcImportError(f"{path}: {schema} model with {what}: a building is imported from "
+                             "its columns (they stand on the foundations)")  # fmt: skip
+    building = snap(elements, cell)
+    skipped = skipped + building.skipped
+    members = [i for i, p in enumerate(building.parts) if p.kind in ("column", "beam")]
+    if not members:
+        raise IfcImportError(f"{path}: no column or beam could be placed on the grid")
+    panel_idx = [i for i, p in enumerate(building.parts) if p.kind in ("slab", "wall")]
+    taken = {c: i for i in members for c in building.parts[i].cells()}
+    obstacles: list[Box] = []
+    obstacle_parts: list[int] = []
+    panel_specs: list[tuple[int, Part]] = []
+    for i in panel_idx:
+        part = building.parts[i]
+        e = part.element
+        if panels == "skip":
+            skipped.append(Skipped(e.ifc_type, e.global_id, e.name, "a panel (--panels skip)"))
+        elif panels == "obstacles":
+            cells = [c for c in part.cells() if c not in taken]
+            taken.update(dict.fromkeys(cells, i))
+            obstacles += _boxes(cells)
+            obstacle_parts.append(i)
+        else:
+            reason = _panel_problem(building, part, taken)
+            if reason is not None:
+                skipped.append(Skipped(e.ifc_type, e.global_id, e.name, reason))
+                continue
+            taken.update(dict.fromkeys(part.cells(), i))
+            panel_specs.append((i, part))
+
+    ids = _ids(building, members + [i for i, _ in panel_specs])
+    comps, order = _components(building, members, ids)
+    top = max(c.target[1][2] for c in comps)
+    top = max([top] + [p.hi[2] for _, p in panel_specs] + [b.hi[2] for b in obstacles])
+    height = top + max(c.length for c in comps if c.kind is Kind.COLUMN)
+    if height > MAX_HEIGHT:
+        raise IfcImportError(f"{path}: the site would be {height} cells high at cell {cell} m "
+                             f"(at most {MAX_HEIGHT}): choose a larger --cell")  # fmt: skip
+    kept = [building.parts[i] for i in members + obstacle_parts + [i for i, _ in panel_specs]]
+    width = max(p.hi[0] for p in kept) + 1  # the plan extent of what is imported
+    depth = max(p.hi[1] for p in kept) + 1
+    params = {"bays_x": width - 1, "bays_y": depth - 1, "span": 1, "storeys": 1,
+              "column_height": height - 1, "yard": yard, "random_start": False,
+              "obstacles": 0}  # fmt: skip
+    site = generator_yard.lay_out(comps, params, random.Random(0))
+    size = (site.size[0], site.size[1], height)
+    ox, oy = site.offset
+    comps = [replace(c, target=_shift(c.target, ox, oy), initial=site.starts[k])
+             for k, c in enumerate(comps)]  # fmt: skip
+    obstacles = [Box(_move(b.lo, ox, oy), _move(b.hi, ox, oy)) for b in obstacles]
+    placed_panels, size = _panel_yard(building, panel_specs, ids, ox, oy, size)
+    if size[0] * size[1] * size[2] > MAX_SITE_CELLS:
+        raise IfcImportError(f"{path}: the site would have {size[0] * size[1] * size[2]} cells "
+                             f"({size[0]} x {size[1]} x {size[2]}) at cell {cell} m; at most "
+                             f"{MAX_SITE_CELLS}: choose a larger --cell")  # fmt: skip
+    n = len(comps) + len(placed_panels)
+    scenario = Scenario(
+        name=name, description="", source=str(path), sha256="", size=size,
+        construction_area=site.area,
+        foundations=_foundations(building, placed_panels, ox, oy),
+        obstacles=tuple(sorted(obstacles, key=lambda b: (b.lo, b.hi))),
+        components=tuple(comps), order=tuple(order), cranes=cranes,
+        step_limit=max(1000, 150 * n), interchangeable_targets=False, assembly_steps=1,
+        beam_lift_z=height, reward=RewardSpec(), random_start=None,
+    )  # fmt: skip
+    text = scenario_text(scenario, building, ids, skipped, schema, Path(path).name,
+                         placed_panels, site.offset)  # fmt: skip
+    g = building.grid
+    grid = Grid(g.cell, (g.origin[0] - ox * g.cell, g.origin[1] - oy * g.cell, g.origin[2]))
+    result = IfcImport(text, None, building, ids, skipped, schema, obstacle_parts, grid)
+    if load:
+        try:
+            result.scenario = parse_scenario(text, source=f"{path} (imported)", default_name=name)
+        except ScenarioError as exc:
+            hint = " (try --panels skip)" if obstacle_parts else ""
+            raise IfcImportError(f"the imported site does not load: {exc}{hint}") from None
+    return result
+
+
+def _foundations(b: Building, panels: list[PanelSpec], ox: int, oy: int):
+    """The columns' foundations, and a foundation strip under every wall standing on the ground."""
+    cells = [(x + ox, y + oy) for x, y in b.foundations]
+    for p in panels:
+        (x0, y0, z0), (x1, y1, z1) = p.target
+        if p.kind == "wall" and min(z0, z1) == 1:
+            cells += [(x, y) for x in range(min(x0, x1), max(x0, x1) + 1)
+                      for y in range(min(y0, y1), max(y0, y1) + 1)]  # fmt: skip
+    return tuple(dict.fromkeys(cells))
+
+
+def _panel_problem(b: Building, part: Part, taken: dict[Cell, int]) -> str | None:
+    size = [h - lo + 1 for lo, h in zip(part.lo, part.hi, strict=True)]
+    if min(size) > 1:
+        return f"a panel thicker than one cell at the cell size ({size[0]} x {size[1]} x {size[2]})"
+    if sorted(size)[1] == 1:
+        return "a panel narrower than two cells at the cell size (use a column or beam)"
+    clash = next((taken[c] for c in part.cells() if c in taken), None)
+    if clash is not None:
+        e = b.parts[clash].element
+        return f"a panel overlapping {e.ifc_type} {e.global_id} {e.name!r} at the cell size"
+    return None
+
+
+def _ids(b: Building, indices: list[int]) -> dict[int, str]:
+    """Component ids: kind letter, storey number (1 = lowest storey; 0: none), running number."""
+    storeys = sorted({(p.element.storey_elevation or 0.0, p.element.storey)
+                      for p in b.parts if p.element.storey})  # fmt: skip
+    number = {name: k for k, (_, name) in enumerate(storeys, 1)}
+    count: dict[str, int] = {}
+    out: dict[int, str] = {}
+    for i in indices:
+        p = b.parts[i]
+        prefix = f"{p.kind[0]}{number.get(p.element.storey, 0)}"
+        count[prefix] = count.get(prefix, 0) + 1
+        out[i] = f"{prefix}-{count[prefix]}"
+    return out
+
+
+def _components(b: Building, members: list[int], ids: dict[int, str]):
+    """Column and beam specs (grid cells), and a buildable list order of all components."""
+    index = {i: k for k, i in enumerate(members)}
+    comps = []
+    for i in members:
+        p = b.parts[i]
+        kind = Kind.COLUMN if p.kind == "column" else Kind.BEAM
+        length = max(abs(h - lo) for lo, h in zip(p.lo, p.hi, strict=True)) + 1
+        comps.append(ComponentSpec(ids[i], kind, length, None, (p.lo, p.hi),
+                                   tuple(index[j] for j in p.supports), False, ()))  # fmt: skip
+    order = sorted(range(len(comps)), key=lambda k: (comps[k].target[0][2], comps[k].kind, k))
+    return comps, order
+
+
+def _shift(pose, ox: int, oy: int):
+    return tuple(_move(c, ox, oy) for c in pose)
+
+
+def _move(c: Cell, ox: int, oy: int) -> Cell:
+    return (c[0] + ox, c[1] + oy, c[2])
+
+
+def _boxes(cells: list[Cell]) -> list[Box]:
+    """Disjoint boxes covering ``cells`` exactly (greedy: grow along x, then y, then z)."""
+    left = set(cells)
+    out: list[Box] = []
+    for start in sorted(cells, key=lambda c: (c[2], c[1], c[0])):
+        if start not in left:
+            continue
+        hi = list(start)
+        for axis in range(3):
+            while True:
+                hi[axis] += 1
+                box = Box(start, tuple(hi))  # type: ignore[arg-type]
+                if not all(c in left for c in box.cells()):
+                    hi[axis] -= 1
+                    break
+        box = Box(start, tuple(hi))  # type: ignore[arg-type]
+        left.difference_update(box.cells())
+        out.append(box)
+    return out
+
+
+def _panel_yard(b: Building, specs: list[tuple[int, Part]], ids: dict[int, str], ox: int,
+                oy: int, size: tuple[int, int, int]):  # fmt: skip
+    """Panels' targets moved onto the site, and their starts: lying flat at ``z = 1`` in a
+    strip added beyond the site's high-y edge (rows along x, one free cell between panels,
+    a margin of the longest panel side around the strip)."""
+    if not specs:
+        return [], size
+    sides = [sorted((h - lo + 1 for lo, h in zip(p.lo, p.hi, strict=True)), reverse=True)[:2]
+             for _, p in specs]  # fmt: skip
+    margin = max(a for a, _ in sides)
+    X, Y, H = size
+    X = max(X, 2 * margin + max(a for a, _ in sides))
+    x, y, row = margin, Y + margin, 0
+    out: list[PanelSpec] = []
+    for (i, p), (a, w) in zip(specs, sides, strict=True):
+        if x + a > X - margin:
+            x, y, row = margin, y + row + 1, 0
+        initial = ((x, y, 1), (x + a - 1, y + w - 1, 1))
+        target = (_move(p.lo, ox, oy), _move(p.hi, ox, oy))
+        supports = _panel_supports(b, p, list(ids), ids)
+        out.append(PanelSpec(ids[i], p.kind, initial, target, supports))
+        x, row = x + a + 1, max(row, w)
+    return out, (X, y + row + margin, H)
+
+
+def _panel_supports(b: Building, p: Part, accepted: list[int],
+                    ids: dict[int, str]) -> tuple[str, ...]:  # fmt: skip
+    """Ids of the accepted parts right under panel ``p`` that share a face with it."""
+    cells = p.cells()
+    bottom = min(c[2] for c in cells)
+    out = []
+    for j in accepted:
+        other = b.parts[j]
+        below = other is not p and max(other.lo[2], other.hi[2]) < bottom
+        if below and geometry.touches(cells, other.cells()):
+            out.append(ids[j])
+    return tuple(out)

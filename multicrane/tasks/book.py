@@ -1,0 +1,335 @@
+"""Task-level decisions: the task list, the task masks, and each crane's task until it is done.
+
+A *task* is a (component, compatible target) pair of the scenario; ``TaskList`` numbers them
+component-major (component 0's targets first, each in target order). The task-level
+environment (``MultiCraneEnv(decisions="task")``) gives each crane the actions ``0`` (wait;
+for a busy crane: continue) and ``1 + p`` (take task ``p``).
+
+**Masks** (``TaskBook.masks``). A busy crane may only continue (``0``). For an idle crane task
+``p = (c, t)`` is allowed iff component ``c`` is claimable now (initial, not claimed, its
+pick-up pose free; a beam or panel needs a ready target) and is not another crane's task, target
+``t`` is free and ready (its supports assembled) and not another crane's task's target, and
+the crane can carry ``c`` to ``t``: its reach holds the pick-up pose and the target and a
+path exists through the static site inside its reach (``static_ok``, breadth-first
+searches done once per start pose and cached). The mask does not run the space-time search.
+With site events (``multicrane.sim.events``) a crane that is down is allowed no task, a component
+not yet delivered is not claimable and a target with a closed cell is not ready, so neither
+appears in an allowed task; a busy crane that breaks down keeps its task (it waits).
+
+**Hold, retry, drop.** A chosen task is handed to the carrier (``multicrane.tasks.carrier_events``:
+it replans on site events). If its space-time search fails now, the crane *holds* the task:
+it is busy, nothing is lifted, the component and target are kept for it, and the search is
+tried again before every simulated step; when ``patience`` simulated steps have passed since
+it was chosen without a path, the task is dropped after that step and the crane is idle again
+(a ``TASK_DROPPED`` task event; the environment's step returns then, as for any crane
+becoming idle).
+
+Task events are ``(name, crane, task)`` tuples: ``TASK_STARTED`` (the carrier has a path:
+the claim is the next step), ``TASK_HELD`` (chosen, no path yet), ``TASK_DROPPED``,
+``TASK_REFUSED`` (the choice was not allowed, e.g. an earlier crane took the component or
+target this round: treated as wait) and ``TASK_DONE`` (the component is assembled).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from multicrane.core.codes import Status
+from multicrane.sim.shortest_paths import UNREACHABLE, breadth_first, fits_everywhere
+from multicrane.sim.simulator import FREE, NOBODY, Simulator
+from multicrane.tasks.carrier_events import EventCarrier
+from multicrane.tasks.reservations import goal_position
+
+_INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
+
+TaskEvent = tuple[str, int, int]  # (name, crane, task)
+
+
+class TaskList:
+    """Every (component, compatible target) pair of a site, component-major."""
+
+    def __init__(self, sim: Simulator):
+        site = sim.site
+        self.pairs = [(c, t) for c in range(site.n_components) for t in site.compatible[c]]
+        self.index = {pair: p for p, pair in enumerate(self.pairs)}
+        self.comp = np.array([c for c, _ in self.pairs], dtype=np.int64)
+        self.target = np.array([t for _, t in self.pairs], dtype=np.int64)
+
+    def __len__(self) -> int:
+        return len(self.pairs)
+
+    def conflicts(self, p: int) -> np.ndarray:
+        """The tasks that share task ``p``'s component or target (``p`` among them): once a
+        crane chooses ``p`` in a round, the others are refused to later cranes."""
+        return (self.comp == self.comp[p]) | (self.target == self.target[p])
+
+
+def exclusive_round(masks: np.ndarray, tasks: TaskList, choose) -> tuple[np.ndarray, np.ndarray]:
+    """A round's crane rows deciding one after the other (``masks``: rows x (1 + padded
+    tasks), crane order; action 0 waits, ``1 + p`` is task ``p``): ``choose(k, mask)`` gives
+    row ``k``'s action under the mask left to it; each task chosen removes the tasks it
+    conflicts with (``TaskList.conflicts``) from the later rows' masks, and a choice its mask
+    no longer allows becomes 0 (the environment would refuse it: the crane waits). Returns
+    (the masks as each row saw them, the actions)."""
+    out = np.array(masks, dtype=bool)
+    chosen = np.zeros(len(out), dtype=np.int64)
+    n = len(tasks)
+    for k in range(len(out)):
+        a = int(choose(k, out[k]))
+        if a > 0 and out[k, a]:
+            chosen[k] = a
+            out[k + 1 :, 1 : n + 1] &= ~tasks.conflicts(a - 1)
+    return out, chosen
+
+
+def exclusive_masks(masks: np.ndarray, choices, tasks: TaskList):
+    """(masks, choices) of a round's crane rows with the given ``choices`` (a teacher's) as
+    the cranes see them deciding one after the other (``exclusive_round``)."""
+    choices = np.asarray(choices, dtype=np.int64)
+    return exclusive_round(masks, tasks, lambda k, mask: choices[k])
+
+
+def task_list(env) -> TaskList | None:
+    """The site's ``TaskList`` of a task-level environment (None at the motion level)."""
+    mode = getattr(getattr(env, "unwrapped", env), "task_mode", None)
+    return None if mode is None else mode.book.tasks
+
+
+class StaticPaths:
+    """Shortest path lengths through the static site (walls and obstacles only), per
+    (component shape, goal pose, crane zone); cached for the life of the site."""
+
+    def __init__(self, sim: Simulator):
+        self.sim = sim
+        self.free = sim.site.static == FREE
+        self._fit: dict[tuple, np.ndarray] = {}
+        self._dist: dict[tuple, np.ndarray] = {}
+
+    def length(self, pickup: list[int], target: int, zone: int) -> int:
+        """Moves from the pick-up pose to the target's pose (``UNREACHABLE``: none)."""
+        if not pickup:
+            return UNREACHABLE
+        site = self.sim.site
+        rel = tuple(j - pickup[0] for j in pickup)
+        goal = goal_position(rel, site.target_cells[target])
+        if goal is None:
+            return UNREACHABLE
+        key = (rel, goal, zone)
+        dist = self._dist.get(key)
+        if dist is None:
+            fit = self._fit.get((rel, zone))
+            if fit is None:
+                fit = fits_everywhere(self.free, rel)
+                if zone >= 0:
+                    fit &= fits_everywhere(site.reach[zone], rel)
+                self._fit[(rel, zone)] = fit
+            dist = breadth_first(fit, [goal], site.move_delta)
+            self._dist[key] = dist
+        return int(dist[pickup[0]])
+
+
+class TaskBook:
+    """The cranes' tasks in one episode: masks, choices, hold/retry/drop, completion."""
+
+    def __init__(self, sim: Simulator, patience: int = 20, slack: int = 40,
+                 max_expansions: int = 20000):  # fmt: skip
+        if patience < 1:
+            raise ValueError(f"task_patience must be at least 1, got {patience!r}")
+        self.sim = sim
+        self.patience = int(patience)
+        self.tasks = TaskList(sim)
+        self.carrier = EventCarrier(sim, slack, max_expansions)  # replans on site events
+        self.static = StaticPaths(sim)
+        self.n_actions = 1 + len(self.tasks)
+
+    def reset(self) -> None:
+        """Start an episode (after ``sim.reset``): no tasks; static reach of every task."""
+        sim = self.sim
+        n = sim.n_cranes
+        self.carrier.reset()
+        self.task: list[int] = [NOBODY] * n  # crane -> task index, NOBODY when idle
+        self.since = [0] * n  # when the task was chosen (for the patience)
+        self.started = [False] * n  # the carrier has it (claimed or carrying)
+        self._tried = [-1] * n  # when the held task's search last ran
+        self._probe: dict[int, int] = {}  # crane -> task started by task_feasible this round
+        self._probe_t: int | None = None
+        self._infeasible: set[tuple[int, int]] = set()
+        zones = sim.site.reach is not None
+        self.static_len = np.full((n, len(self.tasks)), UNREACHABLE, dtype=np.int64)
+        for p, (c, t) in enumerate(self.tasks.pairs):
+            for k in range(n):
+                if zones and not self.carrier.reaches_pair(k, c, t):
+                    continue
+                self.static_len[k, p] = self.static.length(
+                    sim.state.pickup[c], t, k if zones else -1
+                )
+        self.static_ok = self.static_len != UNREACHABLE
+
+    # -- queries ---------------------------------------------------------------------------
+
+    def busy(self, crane: int) -> bool:
+        return self.task[crane] != NOBODY
+
+    def idle_cranes(self) -> list[int]:
+        return [k for k in range(self.sim.n_cranes) if self.task[k] == NOBODY]
+
+    def _open(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per component: claimable and not any crane's task; per target: free, ready and
+        not any crane's task's target."""
+        sim = self.sim
+        C = sim.site.n_components
+        comp_ok = np.zeros(C, dtype=bool)
+        comp_ok[sim.claimable_components()] = True
+        target_ok = np.array(sim.target_ready, dtype=bool)
+        for p in self.task:
+            if p != NOBODY:
+                comp_ok[self.tasks.comp[p]] = False
+                target_ok[self.tasks.target[p]] = False
+        return comp_ok, target_ok
+
+    def allowed(self) -> np.ndarray:
+        """(N, P) bool: the tasks each crane could take now were it idle."""
+        comp_ok, target_ok = self._open()
+        pair_ok = comp_ok[self.tasks.comp] & target_ok[self.tasks.target]
+        ok = self.static_ok & pair_ok[None, :]
+        if self.sim.schedule is not None:
+            ok[[not self.sim.crane_up(k) for k in range(self.sim.n_cranes)]] = False
+        return ok
+
+    def masks(self) -> np.ndarray:
+        """(N, 1 + P) int8: wait always; tasks only for idle cranes (see the module doc)."""
+        n = self.sim.n_cranes
+        masks = np.zeros((n, self.n_actions), dtype=np.int8)
+        masks[:, 0] = 1
+        idle = self.idle_cranes()
+        if idle:
+            allowed = self.allowed()
+            for k in idle:
+                masks[k, 1:] = allowed[k]
+        return masks
+
+    def any_open(self) -> bool:
+        """Some idle crane has an allowed task."""
+        idle = self.idle_cranes()
+        return bool(idle) and bool(self.allowed()[idle].any())
+
+    def time_left(self, crane: int) -> int:
+        """Estimated simulated steps until the crane is idle (0 when idle)."""
+        if self.task[crane] == NOBODY:
+            return 0
+        if not self.started[crane]:
+            p = self.task[crane]
+            return int(self.static_len[crane, p]) + 1 + self.sim.scenario.assembly_steps
+        return self.carrier.time_left(crane)
+
+    # -- planners' probe -------------------------------------------------------------------
+
+    def feasible(self, crane: int, p: int) -> bool:
+        """Would task ``p`` start for ``crane`` now (its space-time search succeeds)? On
+        success the plan is kept for the crane until the next ``choose``, which uses it if
+        the crane chooses ``p`` and drops it otherwise."""
+        T = self.sim.state.step_count
+        if self._probe_t != T:
+            self._probe, self._infeasible, self._probe_t = {}, set(), T
+        if self._probe.get(crane) == p:
+            return True
+        if (crane, p) in self._infeasible or self.task[crane] != NOBODY:
+            return False
+        if not self.allowed()[crane, p]:
+            return False
+        if crane in self._probe:
+            self.carrier.cancel(crane)
+            del self._probe[crane]
+        c, t = self.tasks.pairs[p]
+        if self.carrier.try_start(crane, int(c), int(t)):
+            self._probe[crane] = p
+            return True
+        self._infeasible.add((crane, p))
+        return False
+
+    # -- choices and steps -----------------------------------------------------------------
+
+    def choose(self, choices: list[int]) -> list[TaskEvent]:
+        """Idle cranes' choices (``0`` wait, ``1 + p`` task ``p``): first those that
+        ``feasible`` already started, then the others in crane order; a task no longer
+        allowed (its component or target taken this round) is refused: the crane waits."""
+        T = self.sim.state.step_count
+        probes = self._probe if self._probe_t == T else {}
+        for k, p in list(probes.items()):
+            if self.task[k] != NOBODY or choices[k] != 1 + p:
+                self.carrier.cancel(k)
+                del probes[k]
+        events: list[TaskEvent] = []
+        for k, p in sorted(probes.items()):  # already started by the probe: taken first
+            self._take(k, p, T)
+            self.started[k] = True
+            events.append(("TASK_STARTED", k, p))
+        for k, a in enumerate(choices):
+            if a == 0 or self.task[k] != NOBODY:
+                continue
+            p = a - 1
+            if not self.allowed()[k, p]:
+                events.append(("TASK_REFUSED", k, p))
+                continue
+            self._take(k, p, T)
+            events.append(self._try(k, p))
+        self._probe, self._probe_t = {}, None
+        return events
+
+    def _take(self, crane: int, p: int, T: int) -> None:
+        self.task[crane] = p
+        self.since[crane] = T
+        self.started[crane] = False
+
+    def _try(self, crane: int, p: int) -> TaskEvent:
+        self._tried[crane] = self.sim.state.step_count
+        c, t = self.tasks.pairs[p]
+        if self.carrier.try_start(crane, int(c), int(t)):
+            self.started[crane] = True
+            return ("TASK_STARTED", crane, p)
+        return ("TASK_HELD", crane, p)
+
+    def motion(self, events: list[TaskEvent]) -> list[int]:
+        """The cranes' motion actions for the next simulated step: held tasks are retried
+        (or dropped after ``patience`` steps), then the carrier's plans give the actions."""
+        T = self.sim.state.step_count
+        self.carrier.begin(T)
+        for k in range(self.sim.n_cranes):
+            p = self.task[k]
+            if p == NOBODY or self.started[k] or self._tried[k] == T:
+                continue
+            c, t = self.tasks.pairs[p]
+            if self.carrier.try_start(k, int(c), int(t)):
+                self.started[k] = True
+                events.append(("TASK_STARTED", k, p))
+        if self.sim.schedule is None:
+            return self.carrier.actions(T)
+        # Events can refuse a planned action (a crane down, a closed cell): it becomes wait
+        # and the carrier replans (see multicrane.tasks.carrier).
+        return self.carrier.actions(T, self.sim.action_masks())
+
+    def after_step(self, events: list[TaskEvent]) -> bool:
+        """Update the tasks after a simulated step; True when some busy crane became idle."""
+        st = self.sim.state
+        freed = False
+        for k in range(self.sim.n_cranes):
+            p = self.task[k]
+            if p == NOBODY:
+                continue
+            if not self.started[k]:
+                if st.step_count - self.since[k] >= self.patience:
+                    self.task[k] = NOBODY
+                    freed = True
+                    events.append(("TASK_DROPPED", k, p))
+                continue
+            if st.held[k] != NOBODY or st.assembling[k]:
+                continue
+            comp = int(self.tasks.comp[p])
+            if st.status[comp] == _ASSEMBLED:
+                self.task[k] = NOBODY
+                freed = True
+                events.append(("TASK_DONE", k, p))
+            else:  # the claim did not happen: hold the task and retry
+                self.started[k] = False
+                self.since[k] = st.step_count
+        return freed

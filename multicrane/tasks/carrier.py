@@ -1,0 +1,392 @@
+"""The carrier: carries assigned (component, target) tasks along reserved space-time paths.
+
+The execution half of prioritized planning, as a library component. A task is started with
+``try_start(crane, comp, target)``: a collision-free path (space-time A*, see
+``multicrane.tasks.reservations``) is searched from the component's pick-up pose to the target
+against the paths already reserved; on success the path is reserved and the crane is busy
+until the component is assembled. ``actions(T)`` then turns the plans into the simulator's
+motion actions for step ``T + 1``: claim ``8 + i``, moves ``0..5``, wait ``6``, assemble
+``7``. Which task a crane takes is not its business (``policies.prioritized`` and the
+task-level environment, ``multicrane.tasks.book``, decide that).
+
+One decision round at simulator time ``T``:
+
+    carrier.begin(T)                        # check the plans against the site; repair them
+    carrier.try_start(crane, comp, target)  # any number of new tasks (claimed in step T + 1)
+    joint = carrier.actions(T)              # one motion action per crane
+
+**Reach.** A crane carries a component only inside its zone (``Site.reach``): every pose of
+the path, the pick-up pose and the target must lie in it (the search's fit mask is AND-ed
+with ``fits_everywhere(zone, shape)``). Without reach every crane reaches everywhere.
+
+**Checks and repairs** (``begin``). Each round checks that every component is where its
+plan says. If one is not (an arrival the plan did not foresee, a claim that failed; neither
+was seen on the shipped scenarios), every plan is dropped and all components in transit are
+planned again, oldest first, in up to three passes. A component in transit with no plan
+(after a failed search) holds its cells for ever until it gets one; ``begin`` then returns
+False and no new task may start. When new goals make a target able to become ready while an
+older plan's path crosses its pose, that plan is replanned (the old one is kept if no new
+one is found), so that the component does not arrive there by accident.
+"""
+
+from __future__ import annotations
+
+from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, WAIT, Status
+from multicrane.sim.simulator import NOBODY, Simulator
+from multicrane.tasks.reservations import (
+    INF,
+    Plan,
+    ReservationTable,
+    ShapeCache,
+    goal_position,
+    manhattan,
+    shape_of,
+    space_time_search,
+    stop_poses,
+)
+
+_INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
+
+STAT_NAMES = ("searches", "failed", "expansions", "claims", "replans", "repairs", "fallbacks")
+
+
+class Carrier:
+    """Plans, the reservation table and the motion actions of the cranes' tasks.
+
+    ``slack``: how many steps past the shortest path length a search may run (waiting for
+    other components); ``max_expansions``: A* states expanded per search at most. ``stats``
+    counts searches, failures, expansions, claims, full replans, path repairs and fallbacks
+    (a planned action the mask did not allow: the crane waits and everything is replanned).
+    """
+
+    def __init__(self, sim: Simulator, slack: int = 40, max_expansions: int = 20000):
+        self.sim = sim
+        self.slack = slack
+        self.max_expansions = max_expansions
+        self.stats = dict.fromkeys(STAT_NAMES, 0)
+        self._move_of = {d: m for m, d in enumerate(sim.site.move_delta)}
+        self._deltas = list(sim.site.move_delta)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every plan (at the start of an episode)."""
+        self.plans: dict[int, Plan] = {}
+        self._seq: dict[int, int] = {}  # comp -> plan creation number (the priority)
+        self._counter = 0
+        self._shapes = ShapeCache(self.sim)
+        self._force_replan = False
+        self._round: int | None = None
+        self._res: ReservationTable | None = None
+        self._may_start = True
+        self._claims: dict[int, int] = {}  # crane -> component claimed in step T + 1
+        self._cached: tuple[int, list[int]] | None = None
+        self.round_searches = 0
+
+    # -- queries -------------------------------------------------------------------------------
+
+    def busy(self, crane: int) -> bool:
+        """The crane holds a component, assembles, or claims one in the coming step."""
+        st = self.sim.state
+        return (
+            st.held[crane] != NOBODY
+            or bool(st.assembling[crane])
+            or bool(st.pass_over[crane])
+            or crane in self._claims
+        )
+
+    def task_of(self, crane: int) -> tuple[int, int] | None:
+        """The crane's (component, target), or None when it carries nothing."""
+        st = self.sim.state
+        comp = st.held[crane]
+        if comp == NOBODY:
+            comp = self._claims.get(crane, NOBODY)
+            if comp == NOBODY:
+                return None
+        plan = self.plans.get(comp)
+        if plan is not None:
+            return comp, plan.target
+        filled = int(st.filled[comp])
+        return comp, filled if filled != NOBODY else -1
+
+    def time_left(self, crane: int) -> int:
+        """Estimated steps until the crane is idle: the path left plus the assembly."""
+        sim = self.sim
+        st = sim.state
+        steps = sim.scenario.assembly_steps
+        if st.assembling[crane]:
+            return int(st.assembling[crane])
+        comp = st.held[crane]
+        if comp == NOBODY:
+            comp = self._claims.get(crane, NOBODY)
+            if comp == NOBODY:
+                return 0
+        if st.status[comp] == _ARRIVED:
+            return steps
+        plan = self.plans.get(comp)
+        T = st.step_count
+        if plan is None:
+            return steps + 1
+        return max(plan.arrival - T, 1) + steps
+
+    def may_start(self, T: int) -> bool:
+        """New tasks may start in this round (no component is stranded without a plan)."""
+        self.begin(T)
+        return self._may_start
+
+    def reaches_pair(self, crane: int, comp: int, target: int) -> bool:
+        """The crane's zone holds the component's pick-up pose and the target (static)."""
+        site = self.sim.site
+        return site.reaches(crane, self.sim.state.pickup[comp]) and site.reaches(
+            crane, site.target_cells[target]
+        )
+
+    # -- the round -----------------------------------------------------------------------------
+
+    def begin(self, T: int) -> None:
+        """Start the decision round at time ``T`` (once per ``T``; later calls do nothing)."""
+        if self._round == T:
+            return
+        if self._round is not None and self._round > T:
+            self.reset()
+        self._round = T
+        self._res = None
+        self._claims = {}
+        self._cached = None
+        self.round_searches = 0
+        sim = self.sim
+        diverged = self._sync(T) or self._force_replan
+        self._force_replan = False
+        status = sim.state.status
+        transit = [c for c in range(sim.site.n_components) if status[c] == _IN_TRANSIT]
+        unplanned = [c for c in transit if c not in self.plans]
+        if diverged or unplanned:
+            res = self._table(T)
+            if diverged:
+                self.stats["replans"] += 1
+                self._replan_all(T, res)
+            elif unplanned:
+                self._plan_parked(unplanned, T, res)
+        self._may_start = all(c in self.plans for c in transit)
+
+    def _table(self, T: int) -> ReservationTable:
+        if self._res is None:
+            self._res = self._fresh_table(T)
+        return self._res
+
+    def _fresh_table(self, T: int) -> ReservationTable:
+        """The reservations of every plan from ``T`` on (a hook: events add closed cells)."""
+        return ReservationTable.of_plans(self.sim, self.plans, T)
+
+    def try_start(self, crane: int, comp: int, target: int) -> bool:
+        """Plan ``comp`` from its pick-up pose to ``target`` for ``crane``, claimed in step
+        ``T + 1``; on success reserve the path and return True. Counts a search in
+        ``round_searches`` only when the A* search ran (the cheap checks failing first)."""
+        sim = self.sim
+        T = sim.state.step_count
+        self.begin(T)
+        if not self._may_start or crane in self._claims or comp in self.plans:
+            return False
+        if not self.reaches_pair(crane, comp, target):
+            return False
+        pick = sim.state.pickup[comp]
+        rel = tuple(j - pick[0] for j in pick)
+        goal = goal_position(rel, sim.site.target_cells[target])
+        if goal is None:
+            return False
+        res = self._table(T)
+        if res.conflict(pick, T, T + 1, comp):
+            return False  # the pick-up pose is not free in the claim step
+        stops = self._stops(comp, rel, target)
+        start = pick[0]
+        if start in stops:
+            return False  # it would arrive at another target on being lifted
+        self.round_searches += 1
+        path = self._search(comp, rel, start, T + 1, goal, stops, res, crane)
+        if path is None:
+            return False
+        plan = Plan(comp, crane, target, T + 1, path, claim=True)
+        self._new_plan(plan)
+        res.reserve_plan(plan, rel, T)
+        self._claims[crane] = comp
+        self.stats["claims"] += 1
+        return True
+
+    def cancel(self, crane: int) -> None:
+        """Undo this round's ``try_start`` of ``crane`` (nothing was claimed yet)."""
+        comp = self._claims.pop(crane, None)
+        if comp is None:
+            return
+        del self.plans[comp]
+        self.stats["claims"] -= 1
+        if self._res is not None:
+            self._res.release(comp)
+
+    def actions(self, T: int, masks=None) -> list[int]:
+        """One motion action per crane for step ``T + 1``. Ends the round's new starts: older
+        plans crossing a new goal's stop poses are repaired first. ``masks`` (optional, one
+        row per crane): a planned action outside it becomes wait and forces a full replan."""
+        self.begin(T)
+        if self._cached is not None and self._cached[0] == T:
+            return list(self._cached[1])
+        if self._claims:
+            self._repair(T, self._table(T), set(self._claims.values()))
+        joint = []
+        for crane in range(self.sim.n_cranes):
+            a = self._action(crane, T)
+            if masks is not None and not masks[crane][a]:
+                self.stats["fallbacks"] += 1
+                self._force_replan = True
+                a = WAIT
+            joint.append(a)
+        self._cached = (T, joint)
+        return list(joint)
+
+    def _action(self, crane: int, T: int) -> int:
+        st = self.sim.state
+        if st.assembling[crane] or st.pass_over[crane]:
+            return WAIT
+        comp = st.held[crane]
+        if comp == NOBODY:
+            return CLAIM_BASE + self._claims[crane] if crane in self._claims else WAIT
+        if st.status[comp] == _ARRIVED:
+            return ASSEMBLE
+        plan = self.plans.get(comp)
+        if plan is None:
+            return WAIT
+        d = plan.at(T + 1) - plan.at(T)
+        return WAIT if d == 0 else self._move_of[d]
+
+    # -- bookkeeping -------------------------------------------------------------------------
+
+    def _sync(self, T: int) -> bool:
+        """Drop finished plans; True when some component is not where its plan says."""
+        sim = self.sim
+        diverged = False
+        for comp, plan in list(self.plans.items()):
+            s = sim.state.status[comp]
+            if s == _INITIAL:
+                if plan.claim and plan.t0 > T:
+                    continue  # claimed in the coming step
+                diverged = True  # the claim failed
+                del self.plans[comp]
+            elif s == _IN_TRANSIT:
+                if plan.t0 > T or sim.state.cells[comp][0] != plan.at(T) or plan.arrival <= T:
+                    diverged = True
+                    del self.plans[comp]
+            else:  # arrived or assembled: as planned, or somewhere else
+                at_goal = sim.state.cells[comp][0] == plan.positions[-1] and plan.arrival <= T
+                if sim.state.filled[comp] != plan.target or not at_goal:
+                    diverged = True
+                del self.plans[comp]
+        return diverged
+
+    def _new_plan(self, plan: Plan) -> None:
+        self.plans[plan.comp] = plan
+        if plan.comp not in self._seq:
+            self._counter += 1
+            self._seq[plan.comp] = self._counter
+
+    def _stops(self, comp: int, rel: tuple[int, ...], target: int) -> set[int]:
+        """Poses of other compatible targets that are or may become ready during a path."""
+        planned = {p.target for c, p in self.plans.items() if c != comp}
+        return stop_poses(self.sim, comp, rel, target, planned)
+
+    def taken_targets(self) -> set[int]:
+        """The targets of every plan."""
+        return {p.target for p in self.plans.values()}
+
+    # -- planning ------------------------------------------------------------------------------
+
+    def _search(
+        self, comp: int, rel: tuple[int, ...], start: int, t_start: int, goal: int,
+        stops: set[int], res: ReservationTable, crane: int,
+    ) -> list[int] | None:  # fmt: skip
+        """Space-time A* (counted in ``stats``): positions from ``t_start`` to the arrival."""
+        self.stats["searches"] += 1
+        sim = self.sim
+        zone = crane if sim.site.reach is not None else -1
+        ok = self._shapes.base_ok(sim, rel, zone)
+        h = self._shapes.heuristic(sim, rel, goal, zone)
+        path, expansions = space_time_search(
+            res, comp, rel, start, t_start, goal, stops, ok, h,
+            self._deltas, self.slack, self.max_expansions,
+        )  # fmt: skip
+        self.stats["expansions"] += expansions
+        if path is None:
+            self.stats["failed"] += 1
+        return path
+
+    def _plan_transit(self, comp: int, T: int, res: ReservationTable) -> bool:
+        """Plan a component in transit from where it is; reserve the plan on success."""
+        sim = self.sim
+        rel = shape_of(sim, comp)
+        start = sim.state.cells[comp][0]
+        crane = int(sim.state.holder[comp])
+        taken = self.taken_targets()
+        here = sim.site.cell(start)
+        options = []
+        for t in sim.ready_targets(comp):
+            if t in taken or not sim.site.reaches(crane, sim.site.target_cells[t]):
+                continue
+            goal = goal_position(rel, sim.site.target_cells[t])
+            if goal is not None:
+                options.append((manhattan(here, sim.site.cell(goal)), t, goal))
+        options.sort()
+        for _, t, goal in options[:3]:
+            stops = self._stops(comp, rel, t)
+            path = self._search(comp, rel, start, T, goal, stops, res, crane)
+            if path is not None:
+                self._replace_transit_plan(comp, crane, t, T, path, rel, res)
+                return True
+        return False
+
+    def _replace_transit_plan(
+        self, comp: int, crane: int, target: int, T: int, path, rel: tuple[int, ...],
+        res: ReservationTable,
+    ) -> None:  # fmt: skip
+        """Give a component in transit a new plan along ``path``: its old reservations go."""
+        res.release(comp)
+        plan = Plan(comp, crane, target, T, path, claim=False)
+        self._new_plan(plan)
+        res.reserve_plan(plan, rel, T)
+
+    def _plan_parked(self, comps: list[int], T: int, res: ReservationTable) -> list[int]:
+        """Plan components in transit that have no plan, in order; returns those still parked."""
+        return [comp for comp in comps if not self._plan_transit(comp, T, res)]
+
+    def _replan_all(self, T: int, res: ReservationTable) -> None:
+        """Drop every plan of a component in transit and plan them all again, oldest first."""
+        sim = self.sim
+        transit = [c for c in range(sim.site.n_components) if sim.state.status[c] == _IN_TRANSIT]
+        for c in transit:
+            self.plans.pop(c, None)
+        res.clear()
+        res.update(self._fresh_table(T))
+        order = sorted(transit, key=lambda c: self._seq.get(c, 0))
+        for _ in range(3):
+            left = self._plan_parked(order, T, res)
+            if not left or len(left) == len(order):
+                break
+            order = left
+
+    def _repair(self, T: int, res: ReservationTable, new: set[int]) -> None:
+        """Replan the older plans whose path now crosses a target pose that may become ready
+        (new goals can make a target ready during the path); keep the old plan if none."""
+        sim = self.sim
+        for comp, plan in list(self.plans.items()):
+            if comp in new or plan.claim or sim.state.status[comp] != _IN_TRANSIT:
+                continue
+            rel = shape_of(sim, comp)
+            stops = self._stops(comp, rel, plan.target)
+            rest = plan.positions[max(0, T - plan.t0) : -1]
+            if not stops.intersection(rest):
+                continue
+            self.stats["repairs"] += 1
+            saved = res.copy()
+            res.release(comp)
+            res.hold(sim.state.cells[comp], T, INF, comp)
+            del self.plans[comp]
+            if not self._plan_transit(comp, T, res):
+                res.clear()
+                res.update(saved)
+                self.plans[comp] = plan

@@ -1,0 +1,347 @@
+"""Space-time reservations: which component holds which cell when, and A* paths around them.
+
+A component's *position* is its first cell's linear index in the simulator's padded grid and
+its *shape* (``rel``) the offsets of its cells from that one; a move adds
+``sim.site.move_delta[m]``. Time ``t`` is the simulator's step count: the state at ``t`` is the one
+after step ``t``, and actions chosen at decision time ``T`` are applied in step ``T + 1``.
+
+**Why reserved paths never collide, whatever the order the cranes act in.** In each step the
+cranes act one after another in a random order, each seeing the site as the earlier ones left
+it. So a component may not enter, at ``t``, a cell that another component occupies at ``t``
+*or at* ``t - 1`` (no "following" into a cell vacated in the same step, no swaps): for any two
+components A and B and any ``t``, ``cells_A(t)`` and ``cells_B(t - 1)`` are disjoint, and so
+are ``cells_A(t)`` and ``cells_B(t)``. A move from ``P`` (at ``t - 1``) to ``Q`` (at ``t``)
+therefore checks ``Q`` against the reservations at ``t - 1`` and ``t`` and ``P`` against
+those at ``t``. Under that rule every reserved move finds its cells free whether the other
+cranes have acted yet in the step or not, so it is never blocked.
+
+**The table** (``ReservationTable``) maps a cell to ``(from, to, component)`` intervals; a
+path holds its positions step by step and, from its arrival on, its goal pose for ever
+(``INF``): an arrived component stays where it is. What never moves during a search (walls,
+obstacles, yard components, arrived and assembled ones) is not in the table but in the *base*
+(``ShapeCache.base_ok``: a fit mask per component shape, by numpy).
+
+**Search** (``space_time_search``): A* over (position, time) states, wait or one of the six
+moves per step, cost one per step, heuristic the breadth-first distance to the goal around
+walls and placed components (``ShapeCache.heuristic``; admissible, since yard components and
+components in transit only add detours). A time cap (shortest length + ``slack``) and an
+expansion cap bound each search. Positions in ``stops`` (poses of other targets the component
+would arrive at) are never entered; the goal is entered only once no other reservation touches
+its cells from then on.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass
+
+import numpy as np
+
+from multicrane.core.codes import Status
+from multicrane.sim.shortest_paths import breadth_first, fits_everywhere
+from multicrane.sim.simulator import FREE, NOBODY, WALL, Simulator
+
+INF = 1 << 40  # "for ever" in the reservation table
+_INITIAL, _IN_TRANSIT, _ARRIVED = int(Status.INITIAL), int(Status.IN_TRANSIT), int(Status.ARRIVED)
+
+Interval = tuple[int, int, int]  # (from, to, component), both times included
+
+
+@dataclass
+class Plan:
+    """One component's path: ``positions[i]`` at time ``t0 + i``; it arrives at the end."""
+
+    comp: int
+    crane: int
+    target: int
+    t0: int
+    positions: list[int]
+    claim: bool  # the crane claims the component in step t0 (positions[0]: pick-up pose)
+
+    @property
+    def arrival(self) -> int:
+        return self.t0 + len(self.positions) - 1
+
+    def at(self, t: int) -> int:
+        i = t - self.t0
+        return self.positions[i if i < len(self.positions) else -1]
+
+
+class ReservationTable(dict[int, list[Interval]]):
+    """Cell -> the intervals during which components hold it (a plain dict underneath)."""
+
+    def hold(self, cells, start: int, end: int, comp: int) -> None:
+        """``comp`` holds ``cells`` from ``start`` to ``end`` (``INF``: for ever)."""
+        for j in cells:
+            self.setdefault(j, []).append((start, end, comp))
+
+    def reserve_path(
+        self, comp: int, rel: tuple[int, ...], t0: int, positions: list[int], T: int
+    ) -> None:
+        """Reserve a path (``positions[i]`` at time ``t0 + i``) from time ``T`` on; the last
+        position is held for ever."""
+        pos = positions
+        i = max(0, T - t0)
+        n = len(pos)
+        while i < n:
+            k = i
+            while k + 1 < n and pos[k + 1] == pos[i]:
+                k += 1
+            end = INF if k == n - 1 else t0 + k
+            start = t0 + i
+            for r in rel:
+                self.setdefault(pos[i] + r, []).append((start, end, comp))
+            i = k + 1
+
+    def reserve_plan(self, plan: Plan, rel: tuple[int, ...], T: int) -> None:
+        self.reserve_path(plan.comp, rel, plan.t0, plan.positions, T)
+
+    @classmethod
+    def of_plans(cls, sim: Simulator, plans: dict[int, Plan], T: int) -> ReservationTable:
+        """From time ``T`` on: every component in transit holds its plan's path (or, with no
+        plan, its cells for ever), and so does every planned claim of an initial one."""
+        res = cls()
+        status = sim.state.status
+        for comp in range(sim.site.n_components):
+            if status[comp] != _IN_TRANSIT:
+                continue
+            plan = plans.get(comp)
+            if plan is None:
+                res.hold(sim.state.cells[comp], T, INF, comp)
+            else:
+                res.reserve_plan(plan, shape_of(sim, comp), T)
+        for plan in plans.values():
+            if plan.claim and status[plan.comp] == _INITIAL:
+                res.reserve_plan(plan, shape_of(sim, plan.comp), T)
+        return res
+
+    def release(self, comp: int) -> None:
+        """Drop every reservation of ``comp``."""
+        for cell in list(self):
+            lst = [iv for iv in self[cell] if iv[2] != comp]
+            if lst:
+                self[cell] = lst
+            else:
+                del self[cell]
+
+    def conflict(self, cells, lo: int, hi: int, me: int) -> bool:
+        """True when another component holds one of ``cells`` at some time in ``lo..hi``."""
+        for c in cells:
+            lst = self.get(c)
+            if lst:
+                for a, b, o in lst:
+                    if o != me and a <= hi and b >= lo:
+                        return True
+        return False
+
+    def copy(self) -> ReservationTable:
+        """An independent copy (the interval lists are copied too)."""
+        return ReservationTable({c: list(v) for c, v in self.items()})
+
+
+class ShapeCache:
+    """Per component shape: where it fits the base, and breadth-first distances to goals.
+
+    The base fit is recomputed when some status changes, the distances when some component
+    arrives or is assembled; both are cached per shape (and goal) until then.
+    """
+
+    def __init__(self, sim: Simulator):
+        self.walls = sim.site.static == WALL
+        self._base_key: bytes | None = None
+        self._base_free: np.ndarray | None = None
+        self._fit: dict[tuple[int, ...], bytes] = {}
+        self._h_cache: dict[tuple, memoryview] = {}
+        self._h_key: bytes | None = None
+        self._zone_fit: dict[tuple, np.ndarray] = {}
+
+    def __getstate__(self) -> dict:
+        # The distances are memoryviews (not picklable) and only a cache: rebuilt on use.
+        return {**self.__dict__, "_h_cache": {}, "_h_key": None}
+
+    def base_ok(self, sim: Simulator, rel: tuple[int, ...], zone: int = -1) -> bytes:
+        """Positions where a component of this shape fits the base (no component in transit)
+        and, for ``zone >= 0``, lies wholly in that crane's reach (``Site.reach``)."""
+        status = sim.state.status
+        key = status.tobytes()
+        if key != self._base_key:
+            free = sim.state.occ == FREE
+            for comp in range(sim.site.n_components):
+                if status[comp] == _IN_TRANSIT:
+                    free[sim.state.cells[comp]] = True
+            self._base_key, self._base_free, self._fit = key, free, {}
+        ok = self._fit.get((rel, zone))
+        if ok is None:
+            fit = fits_everywhere(self._base_free, rel)
+            if zone >= 0:
+                fit &= self.zone_fit(sim, rel, zone)
+            ok = fit.tobytes()
+            self._fit[(rel, zone)] = ok
+        return ok
+
+    def zone_fit(self, sim: Simulator, rel: tuple[int, ...], zone: int) -> np.ndarray:
+        """Positions where a component of this shape lies wholly in crane ``zone``'s reach."""
+        key = (rel, zone)
+        fit = self._zone_fit.get(key)
+        if fit is None:
+            fit = fits_everywhere(sim.site.reach[zone], rel)
+            self._zone_fit[key] = fit
+        return fit
+
+    def heuristic(
+        self, sim: Simulator, rel: tuple[int, ...], goal: int, zone: int = -1
+    ) -> memoryview:
+        """Breadth-first moves to ``goal`` over walls and placed components, inside crane
+        ``zone``'s reach when ``zone >= 0`` (-1: none)."""
+        status = sim.state.status
+        key = (status >= _ARRIVED).tobytes()
+        if key != self._h_key:
+            self._h_key, self._h_cache = key, {}
+        h = self._h_cache.get((rel, goal, zone))
+        if h is None:
+            free = ~self.walls
+            for comp in range(sim.site.n_components):
+                if status[comp] >= _ARRIVED:
+                    free[sim.state.cells[comp]] = False
+            fit = fits_everywhere(free, rel)
+            if zone >= 0:
+                fit &= self.zone_fit(sim, rel, zone)
+            # A memoryview reads single entries as fast as a list, without the conversion.
+            h = memoryview(breadth_first(fit, [goal], sim.site.move_delta))
+            self._h_cache[(rel, goal, zone)] = h
+        return h
+
+
+def shape_of(sim: Simulator, comp: int) -> tuple[int, ...]:
+    """The offsets of a component's cells from its first (its pick-up pose's if initial)."""
+    st = sim.state
+    cells = st.cells[comp] if st.status[comp] == _IN_TRANSIT else st.pickup[comp]
+    return tuple(j - cells[0] for j in cells)
+
+
+def goal_position(rel: tuple[int, ...], target_cells: list[int]) -> int | None:
+    """The position at which a component of this shape covers the target's cells exactly."""
+    tc = sorted(target_cells)
+    srel = sorted(rel)
+    start = tc[0] - srel[0]
+    if [start + r for r in srel] == tc:
+        return start
+    return None
+
+
+def stop_poses(
+    sim: Simulator, comp: int, rel: tuple[int, ...], target: int, planned: set[int]
+) -> set[int]:
+    """Poses (of this shape) of the component's compatible targets other than ``target`` that
+    are or may become ready during a path: free, with every support filled or in ``planned``
+    (the goals of other paths). A path entering one would arrive there instead."""
+    site, filled_by = sim.site, sim.state.filled_by
+    out = set()
+    for t in site.compatible[comp]:
+        if t == target or filled_by[t] != NOBODY:
+            continue
+        if all(filled_by[s] != NOBODY or s in planned for s in site.target_supports[t]):
+            g = goal_position(rel, site.target_cells[t])
+            if g is not None:
+                out.add(g)
+    return out
+
+
+def manhattan(a: tuple[int, int, int], b: tuple[int, int, int]) -> int:
+    return abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2])
+
+
+def space_time_search(
+    res: ReservationTable,
+    comp: int,
+    rel: tuple[int, ...],
+    start: int,
+    t_start: int,
+    goal: int,
+    stops: set[int],
+    ok: bytes,
+    h: memoryview,
+    deltas: list[int],
+    slack: int,
+    max_expansions: int,
+) -> tuple[list[int] | None, int]:
+    """Space-time A*: positions from ``t_start`` (at ``start``) to the arrival at ``goal``.
+
+    ``ok``: where the shape fits the base; ``h``: distances to the goal. Returns the path
+    (or None) and the number of states expanded.
+    """
+    h0 = h[start]
+    if h0 < 0 or not ok[goal]:
+        return None, 0
+    # The goal is held for ever from the arrival: no reservation may touch it after.
+    free_from = t_start
+    for r in rel:
+        for _, b, o in res.get(goal + r, ()):
+            if o != comp:
+                if b >= INF:
+                    return None, 0
+                free_from = max(free_from, b + 1)
+    if start == goal:
+        return ([start] if t_start >= free_from else None), 0
+    t_cap = t_start + h0 + slack
+    get = res.get
+
+    def conflict_at(p: int, lo: int, hi: int) -> bool:
+        """``res.conflict`` of the shape's cells at position p, without building the list."""
+        for r in rel:
+            lst = get(p + r)
+            if lst:
+                for a, b, o in lst:
+                    if o != comp and a <= hi and b >= lo:
+                        return True
+        return False
+
+    parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, t_start): None}
+    heap = [(h0, h0, t_start, start)]
+    expansions = 0
+    found = None
+    while heap:
+        _, hp, t, p = heapq.heappop(heap)
+        expansions += 1
+        if expansions > max_expansions:
+            break
+        if t >= t_cap:
+            continue
+        t1 = t + 1
+        if conflict_at(p, t1, t1):
+            continue  # someone enters these cells at t1: it had to leave before
+        key = (p, t1)
+        if key not in parent:
+            parent[key] = (p, t)
+            heapq.heappush(heap, (t1 - t_start + hp, hp, t1, p))
+        for d in deltas:
+            q = p + d
+            if not ok[q] or q in stops:
+                continue
+            hq = h[q]
+            if hq < 0:
+                continue
+            key = (q, t1)
+            if key in parent:
+                continue
+            if conflict_at(q, t, t1):
+                continue
+            if q == goal:
+                if t1 < free_from:
+                    continue
+                parent[key] = (p, t)
+                found = key
+                break
+            parent[key] = (p, t)
+            heapq.heappush(heap, (t1 - t_start + hq, hq, t1, q))
+        if found is not None:
+            break
+    if found is None:
+        return None, expansions
+    path = []
+    node = found
+    while node is not None:
+        path.append(node[0])
+        node = parent[node]
+    path.reverse()
+    return path, expansions
