@@ -68,7 +68,7 @@ class TaskLookahead:
     def _candidates(self, base: dict) -> list[dict]:
         """The planner's joint action, then the first idle crane's alternatives."""
         env = self.env
-        book = env.task_mode.book
+        book = env.mode.task_book()
         idle = book.idle_cranes()
         if not idle or not book.carrier.may_start(env.sim.state.step_count):
             return [base]
@@ -91,7 +91,7 @@ class TaskLookahead:
         """A deep copy of the environment that shares what no episode changes (the scenario,
         the site, the task list and the static path lengths, a cache of the site's)."""
         env = self.env
-        book = env.task_mode.book
+        book = env.mode.task_book()
         shared = (env.scenario, env.sim.scenario, env.sim.site, env.observation_layout,
                   book.tasks, book.static)  # fmt: skip
         return copy.deepcopy(env, {id(x): x for x in shared})

@@ -4,20 +4,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from multicrane.episodes.random_actions import random_legal_action, random_legal_actions
+
 
 class RandomPolicy:
-    """Picks uniformly among the actions an ``action_mask`` allows, from its own seed."""
+    """Picks uniformly among the actions an ``action_mask`` allows, from its own seed
+    (``multicrane.episodes.random_actions``)."""
 
     def __init__(self, seed: int | None = None):
         self.rng = np.random.default_rng(seed)
 
     def act(self, mask: np.ndarray) -> int:
-        legal = np.flatnonzero(mask)
-        return int(legal[self.rng.integers(len(legal))])
+        return random_legal_action(mask, self.rng)
 
     def __call__(self, observations: dict) -> dict:
         """Joint action for a PettingZoo parallel env's observations."""
-        return {a: self.act(o["action_mask"]) for a, o in observations.items()}
+        masks = {agent: o["action_mask"] for agent, o in observations.items()}
+        return random_legal_actions(masks, self.rng)
 
 
 class RandomMoves(RandomPolicy):

@@ -35,6 +35,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from multicrane.envs.decision_modes import task_level
 from multicrane.episodes.rollout import is_multi_agent
 from policies.random_policy import RandomMoves, RandomPolicy
 
@@ -75,11 +76,6 @@ class ExactPlan:
         return self.actions.pop(0) if self.actions else 0
 
 
-def _task_level(env) -> bool:
-    """The environment takes task-level decisions (``decisions="task"``)."""
-    return getattr(getattr(env, "unwrapped", env), "decisions", "motion") == "task"
-
-
 def _builtin(name: str, paper: bool, env=None) -> Callable[..., Any]:
     """``build(env, seed, **options)`` for a built-in name of a mode (the task-level
     planners of ``policies.task_planners`` when ``env`` takes task-level decisions)."""
@@ -91,9 +87,9 @@ def _builtin(name: str, paper: bool, env=None) -> Callable[..., Any]:
 
             return lambda env, seed, **o: PaperGreedyPolicy(env, **o)
         return lambda env, seed, **o: RandomMoves(seed=policy_seed(seed), **o)
-    if name == "static-plan" and _task_level(env):
+    if name == "static-plan" and task_level(env):
         raise PolicyError("policy 'static-plan' drives motion decisions (decisions='motion')")
-    if name == "lookahead" and not _task_level(env):
+    if name == "lookahead" and not task_level(env):
         raise PolicyError("policy 'lookahead' drives task decisions (decisions='task')")
     if name == "lookahead":
         from policies.lookahead import TaskLookahead
@@ -105,7 +101,7 @@ def _builtin(name: str, paper: bool, env=None) -> Callable[..., Any]:
                 raise PolicyError(f"policy 'lookahead': {exc}") from None
 
         return build
-    if name in TASK_NAMES and _task_level(env):
+    if name in TASK_NAMES and task_level(env):
         from policies import task_planners
 
         cls = {"prioritized": task_planners.TaskPrioritized, "greedy": task_planners.TaskGreedy,
@@ -194,7 +190,7 @@ class Factory:
         from multicrane.training.model_policy import model_policy
 
         if getattr(self.config, "policy", "mlp") == "set":  # reads any task-mode site
-            if getattr(env, "decisions", None) != "task":
+            if not task_level(env):
                 raise PolicyError(f"policy {self.name!r} is a set policy: it needs decisions=task")
             return model_policy(self.model, env, paper, **self.options)
         space = env.observation_space if paper else env.observation_space(env.possible_agents[0])

@@ -35,6 +35,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from multicrane.core.codes import WAIT, Status
+from multicrane.envs.decision_modes import task_level
 from multicrane.sim.event_knowledge import event_view
 from multicrane.sim.simulator import Simulator
 from policies.prioritized import PrioritizedPlanner
@@ -81,7 +82,7 @@ class StaticPlan:
     def __init__(self, env, seed=None, patience: int = 30, **options):
         if env.sim.auto:
             raise ValueError("StaticPlan drives the default (claiming) mode, not auto=True")
-        if getattr(env, "decisions", "motion") != "motion":
+        if task_level(env):
             raise ValueError("static-plan drives motion decisions (decisions='motion')")
         self.env = env
         self.seed = seed

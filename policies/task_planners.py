@@ -18,14 +18,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from multicrane.envs.decision_modes import task_level
 from policies.prioritized import assign_in_rank, check_rank
 
 
 def _book(env):
-    base = env.unwrapped if hasattr(env, "unwrapped") else env
-    if getattr(base, "task_mode", None) is None:
+    """The unwrapped environment and its task book (``ValueError`` below the task level)."""
+    if not task_level(env):
         raise ValueError("task-level planners drive MultiCraneEnv(decisions='task')")
-    return base, base.task_mode.book
+    base = env.unwrapped if hasattr(env, "unwrapped") else env
+    return base, base.mode.task_book()
 
 
 class TaskPrioritized:
@@ -40,11 +42,11 @@ class TaskPrioritized:
 
     @property
     def stats(self) -> dict:
-        return self.env.task_mode.book.carrier.stats
+        return self.env.mode.carrier_stats()
 
     def __call__(self, observations: dict) -> dict:
         env = self.env
-        book = env.task_mode.book
+        book = env.mode.task_book()
         sim, carrier = env.sim, book.carrier
         agents = env.possible_agents
         actions = dict.fromkeys(agents, 0)
@@ -77,7 +79,7 @@ class TaskGreedy:
         self.seed = seed
 
     def __call__(self, observations: dict) -> dict:
-        book = self.env.task_mode.book
+        book = self.env.mode.task_book()
         agents = self.env.possible_agents
         actions = dict.fromkeys(agents, 0)
         allowed = book.allowed()

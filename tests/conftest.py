@@ -32,6 +32,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import multicrane  # noqa: E402
+from multicrane.episodes.random_actions import random_legal_actions  # noqa: E402
 
 SCENARIOS: list[str] = multicrane.scenario_names()
 
@@ -63,13 +64,9 @@ def reach_skip(name: str, n_cranes: int | None) -> str | None:
 
 
 def random_masked_actions(obs: dict, rng: np.random.Generator) -> dict[str, int]:
-    """One uniformly random legal action per agent, from ``obs[agent]["action_mask"]``."""
-    actions = {}
-    for agent, o in obs.items():
-        legal = np.flatnonzero(o["action_mask"])
-        assert legal.size, f"{agent}: the action mask allows nothing"
-        actions[agent] = int(legal[rng.integers(legal.size)])
-    return actions
+    """One uniformly random legal action per agent, from ``obs[agent]["action_mask"]``
+    (``multicrane.episodes.random_actions``: it refuses a mask that allows nothing)."""
+    return random_legal_actions({agent: o["action_mask"] for agent, o in obs.items()}, rng)
 
 
 @pytest.fixture(scope="session")

@@ -9,8 +9,10 @@ The 121-component, 16-crane sites of docs/performance.md are made with
         --obstacles 2 -o s121.toml        # and --interchangeable for s121i.toml
 
 Prints one line per file: load (``load_scenario``), environment construction, two resets,
-the mean joint step over 300 random legal joint actions, and the prioritized planner's
-slowest and mean call over one episode from ``reset(seed=0)``.
+the mean joint step (the draw of a random legal joint action and ``env.step``; resets not
+counted) over the first 300 steps of the episode from ``reset(seed=0)``, and the prioritized
+planner's slowest and mean call over that episode (``multicrane.episodes.rollout`` plays and
+times both; the draws come from ``multicrane.episodes.random_actions``).
 """
 
 from __future__ import annotations
@@ -22,7 +24,8 @@ import numpy as np
 
 import multicrane
 import policies
-from multicrane.episodes.rollout import run_episode
+from multicrane.episodes.random_actions import random_legal_actions
+from multicrane.episodes.rollout import Stopwatch, play, run_episode
 from multicrane.scenario.loader import load_scenario
 
 
@@ -39,28 +42,19 @@ def measure(path: str) -> str:
         env.reset(seed=seed)
         resets.append(time.perf_counter() - t)
     rng = np.random.default_rng(0)
-    obs, _ = env.reset(seed=0)
-    n, t = 0, time.perf_counter()
-    while n < 300 and env.agents:
-        actions = {a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents}
-        obs, *_ = env.step(actions)
-        n += 1
-    step = (time.perf_counter() - t) / n
-    policy = policies.make("prioritized", env, seed=0)
-    calls: list[float] = []
+    draws, steps = Stopwatch(), Stopwatch()
 
-    def timed(observation):
-        t0 = time.perf_counter()
-        action = policy(observation)
-        calls.append(time.perf_counter() - t0)
-        return action
+    def draw(observations: dict) -> dict:
+        return random_legal_actions({a: o["action_mask"] for a, o in observations.items()}, rng)
 
-    result = run_episode(env, timed, seed=0)
+    n = play(env, draws.timing(draw), 0, steps=300, step_watch=steps)
+    step = (sum(draws.seconds) + sum(steps.seconds)) / n
+    result = run_episode(env, policies.make("prioritized", env, seed=0), seed=0)
     return (
         f"{path}: {s.n_components} components, {s.cranes} cranes | load {load:.3f} s, "
         f"env {build:.3f} s, reset {resets[0]:.3f}/{resets[1]:.3f} s | step {step * 1e3:.2f} ms"
-        f" | planner max {max(calls) * 1e3:.1f} ms, mean {np.mean(calls) * 1e3:.2f} ms"
-        f" | solved {result['success']} in {result['steps']} steps"
+        f" | planner max {result['plan_ms_max']:.1f} ms, mean {result['plan_ms_per_step']:.2f}"
+        f" ms | solved {result['success']} in {result['steps']} steps"
     )
 
 

@@ -20,4 +20,4 @@ if [ ! -f "$stamp" ]; then
 fi
 export OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"
 .venv-benchmarl/bin/python -m pytest -q -p no:cacheprovider -m benchmarl \
-  tests/test_benchmarl.py "$@"
+  tests/integrations/test_benchmarl.py "$@"

@@ -6,7 +6,7 @@ mode, run, resumed, aggregated into Table I's metric and plotted (``multicrane b
 - ``manifest``: the sweep directory's ``sweep.json`` (sessions) and its lock.
 - ``estimate``: how long runs take; longest first.
 - ``sweep``: running a sweep on a backend, resuming what was started.
-- ``tasks``: one run as a unit of work (``Task`` -> ``execute_run`` -> ``Outcome``).
+- ``jobs``: one run as a unit of work (``Task`` -> ``execute_run`` -> ``Outcome``).
 - ``backends``: a backend by name: ``local`` (processes), ``ray`` (``ray_backend``),
   ``serial`` (this process); ``interrupts`` routes Ctrl-C to them.
 - ``aggregate``: Table I's metric over the result files.
@@ -15,6 +15,8 @@ mode, run, resumed, aggregated into Table I's metric and plotted (``multicrane b
 - ``reference``: the paper's Table I.
 
 Nothing here imports torch until a run starts: ``status`` and ``report`` read JSON only.
+
+May import: every room below it (``core`` to ``training``).
 """
 
 from multicrane.benchmark.profiles import (

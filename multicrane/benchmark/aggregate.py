@@ -21,12 +21,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from multicrane.benchmark.profiles import Sweep
 from multicrane.benchmark.runstate import RESULT, config_differences, read_result
-from multicrane.files import write_json_atomic
 from multicrane.stats import mean_sem
 
 LABELS = {
@@ -179,7 +177,3 @@ METRIC = (
     "seeds +- the standard error over seeds (sample std with n-1 / sqrt(n); None for one seed)"
 )
 
-
-def write_summary(path: Path, sweep: Sweep, cells: Sequence[Cell]) -> None:
-    """``summary`` as ``summary.json``."""
-    write_json_atomic(path, summary(sweep, cells), indent=1)

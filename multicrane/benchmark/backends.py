@@ -16,8 +16,6 @@ from multicrane.benchmark.local import LocalBackend
 from multicrane.benchmark.ray_backend import RayBackend
 from multicrane.benchmark.serial import SerialBackend
 
-BACKENDS = ("local", "ray", "serial")
-
 
 def make_backend(
     name: str,

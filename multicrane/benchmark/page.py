@@ -20,6 +20,7 @@ from multicrane.benchmark.reference import (
     table_i,
 )
 from multicrane.benchmark.scores import Baseline, score_table
+from multicrane.tables import markdown_table
 
 
 def _num(value: float | None, digits: int = 2) -> str:
@@ -50,12 +51,6 @@ def _paper_header(column: str) -> str:
     return f"Table I {column}" if meaning == column else f'Table I "{column}" ({meaning})'
 
 
-def _table(header: list[str], align: str, rows: list[list[str]]) -> list[str]:
-    """A markdown table; the first column left-aligned, the others ``align``."""
-    rule = "|---|" + "|".join([align] * (len(header) - 1)) + "|"
-    return ["| " + " | ".join(header) + " |", rule] + ["| " + " | ".join(r) + " |" for r in rows]
-
-
 def _rows(sweep: Sweep, cells: Sequence[Cell]) -> dict[str, dict[str, Cell]]:
     by_config: dict[str, dict[str, Cell]] = {}
     for cell in cells:
@@ -84,7 +79,7 @@ def return_table(sweep: Sweep, cells: Sequence[Cell]) -> list[str]:
             line.append(_ours(cell, top is not None and cell.mean == top))
             line += [_paper(config, col) for col in PAPER_COLUMN[algo]]
         rows.append(line)
-    return _table(header, "---:", rows)
+    return markdown_table(header, rows)
 
 
 def success_gap_table(sweep: Sweep, cells: Sequence[Cell]) -> list[str]:
@@ -106,7 +101,7 @@ def success_gap_table(sweep: Sweep, cells: Sequence[Cell]) -> list[str]:
                 pct = "" if cell.gap_pct is None else f" ({cell.gap_pct:.0f} %)"
                 line.append(f"{cell.gap:.2f}{pct}")
         rows.append(line)
-    return _table(header, "---:", rows)
+    return markdown_table(header, rows)
 
 
 def training_table(sweep: Sweep, cells: Sequence[Cell]) -> list[str]:
@@ -118,7 +113,26 @@ def training_table(sweep: Sweep, cells: Sequence[Cell]) -> list[str]:
             mean, sem = row[algo].train_return
             line.append("pending" if mean is None else f"{_num(mean)} ± {_num(sem)}")
         rows.append(line)
-    return _table(header, "---:", rows)
+    return markdown_table(header, rows)
+
+
+LABELS_SHOWN = (  # (key of ``labels``, its name on the page), in the page's order
+    ("run_command", "Command (runs)"),
+    ("report_command", "Command (this report)"),
+    ("date", "Date"),
+    ("machine", "Machine"),
+    ("wall", "Time"),
+    ("versions", "Versions"),
+)
+
+ALGO_NOTES = (  # (algorithm, what to know when reading its column beside Table I)
+    ("double_dqn", 'The paper\'s "DQN" column was a double DQN and its "DDQN" a dueling double '
+     "DQN (`docs/paper-spec.md` section 7, item 10), so both stand beside our double DQN, "
+     "the closest algorithm we have (ours has no dueling head)."),
+    ("dqn", "Our DQN is plain (vanilla) DQN, which the paper's code did not run."),
+    ("maskable_ppo", "MaskablePPO (PPO with the blocked-move mask) is not in the paper."),
+)  # fmt: skip
+SIGN_NOTE = '\\* printed as "140.18" in the paper; the minus sign was lost.'
 
 
 def markdown(
@@ -137,51 +151,8 @@ def markdown(
     ``baseline``: each configuration's random and optimal returns on the evaluation
     episodes (``scores.baselines``); with it, the page opens with ``scores.score_table``
     (interval, normalised score, Table I best, targets) and says which cells are pending."""
-    total = len(sweep.configs) * len(sweep.algos) * len(sweep.seeds)
-    finished = sum(c.n for c in cells)
-    seeds = len(sweep.seeds)
-    final_n = sweep.final_episodes or sweep.eval_episodes
-    out = [
-        f"{heading} Benchmark results: `{sweep.name}` sweep",
-        "",
-        f"Final return, mean ± standard error over {seeds} seed{'s' if seeds != 1 else ''}: "
-        'for each seed, `result["final"]["return_mean"]`, the mean return of the trained '
-        "policy acting greedily (deterministic actions) over the final evaluation's "
-        f"{final_n} episodes (reset seeds 1000000 .. {999_999 + final_n}, "
-        "the same episodes for every algorithm and seed); then the mean of those over seeds "
-        "± their standard error (sample standard deviation with n − 1, divided by √n; "
-        '"n/a" with a single seed). **Bold**: the best of ours in the row. *optimal*: the '
-        "exact planner's mean return on the same evaluation episodes.",
-        "",
-        f"- Budget: {sweep.budget()}; profile `{sweep.profile}`. Table I: "
-        f"{PAPER_STEPS:,} steps, {PAPER_SEEDS} seeds, the paper's public code (the "
-        "uncorrected environment of `docs/paper-spec.md` section 7), so its numbers are "
-        "beside ours for orientation, not for a like-for-like comparison.",
-        f"- Runs: {finished} of {total} finished.",
-    ]
-    for key, text in (
-        ("run_command", "Command (runs)"),
-        ("report_command", "Command (this report)"),
-        ("date", "Date"),
-        ("machine", "Machine"),
-        ("wall", "Time"),
-        ("versions", "Versions"),
-    ):
-        if labels.get(key):
-            out.append(f"- {text}: {labels[key]}")
-    missing = [
-        f"{c.config}/{c.algo} seed{'s' if len(c.missing) > 1 else ''} "
-        + ", ".join(str(s) for s in c.missing)
-        for c in cells
-        if c.missing
-    ]
-    if missing:
-        shown = "; ".join(missing[:12])
-        if len(missing) > 12:
-            shown += f"; and {len(missing) - 12} more"
-        out.append(f"- Runs without a result yet (pending, not in the means): {shown}.")
-    for problem in problems:
-        out.append(f"- Unusable result file: {problem}")
+    out = [f"{heading} Benchmark results: `{sweep.name}` sweep", "", metric_text(sweep), ""]
+    out += run_lines(sweep, cells, labels, problems)
     if baseline is not None:
         pending = sum(1 for c in cells if c.n == 0)
         out += [
@@ -193,19 +164,9 @@ def markdown(
             "The same final returns beside every Table I column:",
         ]
     out += ["", *return_table(sweep, cells), ""]
-    notes = []
-    if "double_dqn" in sweep.algos:
-        notes.append(
-            'The paper\'s "DQN" column was a double DQN and its "DDQN" a dueling double DQN '
-            "(`docs/paper-spec.md` section 7, item 10), so both stand beside our double DQN, "
-            "the closest algorithm we have (ours has no dueling head)."
-        )
-    if "dqn" in sweep.algos:
-        notes.append("Our DQN is plain (vanilla) DQN, which the paper's code did not run.")
-    if "maskable_ppo" in sweep.algos:
-        notes.append("MaskablePPO (PPO with the blocked-move mask) is not in the paper.")
+    notes = [note for algo, note in ALGO_NOTES if algo in sweep.algos]
     if any(c in SIGN_FIXED for c in sweep.configs) and "ppo" in sweep.algos:
-        notes.append('\\* printed as "140.18" in the paper; the minus sign was lost.')
+        notes.append(SIGN_NOTE)
     if notes:
         out += [" ".join(notes), ""]
     out += [
@@ -220,16 +181,64 @@ def markdown(
         *training_table(sweep, cells),
         "",
     ]
-    if plots:
-        out += [
-            "Learning curves (as the paper's Fig. 7): the greedy policy's mean return over "
-            f"{sweep.eval_episodes} evaluation episodes every {sweep.eval_every:,} steps, mean "
-            "over seeds with a ± s.e. band; dashed: the optimal return.",
-            "",
-        ]
-        out += [f"![{Path(p).stem}]({p})" for p in plots]
-        out.append("")
-    return "\n".join(out)
+    return "\n".join(out + plot_lines(sweep, plots))
+
+
+def metric_text(sweep: Sweep) -> str:
+    """What the numbers are: the final return of each seed, then mean ± s.e. over seeds."""
+    seeds = len(sweep.seeds)
+    final_n = sweep.final_episodes or sweep.eval_episodes
+    return (
+        f"Final return, mean ± standard error over {seeds} seed{'s' if seeds != 1 else ''}: "
+        'for each seed, `result["final"]["return_mean"]`, the mean return of the trained '
+        "policy acting greedily (deterministic actions) over the final evaluation's "
+        f"{final_n} episodes (reset seeds 1000000 .. {999_999 + final_n}, "
+        "the same episodes for every algorithm and seed); then the mean of those over seeds "
+        "± their standard error (sample standard deviation with n − 1, divided by √n; "
+        '"n/a" with a single seed). **Bold**: the best of ours in the row. *optimal*: the '
+        "exact planner's mean return on the same evaluation episodes."
+    )
+
+
+def run_lines(
+    sweep: Sweep, cells: Sequence[Cell], labels: Mapping[str, str], problems: Sequence[str]
+) -> list[str]:
+    """The list under the metric: budget, runs finished, labels, runs pending, bad files."""
+    total = len(sweep.configs) * len(sweep.algos) * len(sweep.seeds)
+    out = [
+        f"- Budget: {sweep.budget()}; profile `{sweep.profile}`. Table I: "
+        f"{PAPER_STEPS:,} steps, {PAPER_SEEDS} seeds, the paper's public code (the "
+        "uncorrected environment of `docs/paper-spec.md` section 7), so its numbers are "
+        "beside ours for orientation, not for a like-for-like comparison.",
+        f"- Runs: {sum(c.n for c in cells)} of {total} finished.",
+    ]
+    out += [f"- {name}: {labels[key]}" for key, name in LABELS_SHOWN if labels.get(key)]
+    missing = [
+        f"{c.config}/{c.algo} seed{'s' if len(c.missing) > 1 else ''} "
+        + ", ".join(str(s) for s in c.missing)
+        for c in cells
+        if c.missing
+    ]
+    if missing:
+        shown = "; ".join(missing[:12])
+        if len(missing) > 12:
+            shown += f"; and {len(missing) - 12} more"
+        out.append(f"- Runs without a result yet (pending, not in the means): {shown}.")
+    return out + [f"- Unusable result file: {problem}" for problem in problems]
+
+
+def plot_lines(sweep: Sweep, plots: Sequence[str]) -> list[str]:
+    """The learning curves, when there are any, under a line saying what they show."""
+    if not plots:
+        return []
+    return [
+        "Learning curves (as the paper's Fig. 7): the greedy policy's mean return over "
+        f"{sweep.eval_episodes} evaluation episodes every {sweep.eval_every:,} steps, mean "
+        "over seeds with a ± s.e. band; dashed: the optimal return.",
+        "",
+        *(f"![{Path(p).stem}]({p})" for p in plots),
+        "",
+    ]
 
 
 def versions_label(results: Results) -> str:

@@ -1,5 +1,5 @@
-"""Writing a sweep's report files: ``report.md``, ``summary.json``, the learning-curve PNGs
-and, on request, the sweep's generated section of ``docs/benchmark.md``.
+"""Writing a sweep's report files: the report page (report.md), ``summary.json``, the
+learning-curve PNGs and, on request, the sweep's generated section of ``docs/benchmark.md``.
 """
 
 from __future__ import annotations

@@ -20,6 +20,7 @@ from typing import Any
 from multicrane.benchmark.aggregate import LABELS, Cell
 from multicrane.benchmark.reference import ALGORITHMS, PAPER_MEANING, SIGN_FIXED, TABLE_I
 from multicrane.stats import ci95, mean_sem
+from multicrane.tables import markdown_table
 
 NORMALISED_TARGET = 0.95
 NORMALISED_ENVS = ("E1", "E2")  # where the normalised-score target applies
@@ -169,9 +170,7 @@ def score_table(
 ) -> list[str]:
     """Markdown lines: the table, then what each column means and which entries are whose."""
     rows = score_rows(configs, algos, cells, baseline)
-    rule = "|---|---|" + "|".join(["---:"] * (len(HEADER) - 2)) + "|"
-    lines = ["| " + " | ".join(HEADER) + " |", rule]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    lines = markdown_table(HEADER, rows, align="ll")
     missed = miss_list(cells, baseline)
     lines += [
         "",

@@ -14,7 +14,7 @@ workload floor the relaxation is solved.
 from __future__ import annotations
 
 from multicrane.bounds.lift_options import Option, Tasks
-from multicrane.core.codes import waits_for_target
+from multicrane.core.kinds import waits_for_target
 
 
 def list_schedule(tasks: Tasks, assignment: dict[int, Option]) -> dict[int, tuple[int, Option]]:

@@ -29,7 +29,7 @@ the optimum of the relaxation is at most the best achievable makespan:
   component (``Site.target_supports``); the model asks only that the component *arrives* no
   earlier than the step in which the last support is assembled (``s + 1 + m >= end(support)``;
   cranes act one after another in a step, so the same step is possible), and that a beam (or
-  a panel: ``types.waits_for_target``) is
+  a panel: ``kinds.waits_for_target``) is
   *claimed* no earlier than the step in which some target it may fill becomes supported (the
   simulator lets a beam be claimed only then, and also asks that target to be free, which the
   model does not). A column may be claimed before its target is supported, as in the
@@ -66,15 +66,14 @@ import math
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from multicrane.bounds.first_schedule import list_schedule
 from multicrane.bounds.first_schedule import makespan as schedule_makespan
 from multicrane.bounds.lift_options import Option, Tasks, task_options
-from multicrane.core.codes import waits_for_target
+from multicrane.core.kinds import waits_for_target
 from multicrane.core.schema import Scenario
 from multicrane.scenario.loader import load_scenario
-
-STATUSES = ("optimal", "feasible", "unknown")
 
 
 @dataclass(frozen=True)
@@ -121,6 +120,23 @@ class BoundResult:
 # -- the model -----------------------------------------------------------------------------------
 
 
+@dataclass
+class _Model:
+    """The CP-SAT model of the relaxation as it is built, and its variables."""
+
+    model: Any
+    by_comp: dict[int, list[Option]]  # component -> its options
+    horizon: int
+    free_targets: list[int]  # targets not taken by a pre-built component
+    makespan: Any = None
+    fill: dict[int, Any] = field(default_factory=dict)  # target -> the step it is filled
+    start: dict[int, Any] = field(default_factory=dict)  # component -> its claim's start
+    end: dict[int, Any] = field(default_factory=dict)
+    presence: dict[Option, Any] = field(default_factory=dict)  # option -> chosen
+    intervals: list[Any] = field(default_factory=list)
+    by_crane: dict[int | None, list[tuple[Any, Option, Any]]] = field(default_factory=dict)
+
+
 def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None):
     """The CP-SAT model of the relaxation (see the module doc); returns (model, makespan).
 
@@ -129,7 +145,18 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
     """
     from ortools.sat.python import cp_model
 
-    model = cp_model.CpModel()
+    m = _start_model(cp_model.CpModel(), tasks)
+    _add_tasks(m, tasks)
+    _add_readiness(m, tasks)
+    _add_cranes(m, tasks.n_cranes)
+    m.model.Minimize(m.makespan)
+    if hint is not None:
+        _add_hint(m, hint)
+    return m.model, m.makespan
+
+
+def _start_model(model, tasks: Tasks) -> _Model:
+    """The options by component, the horizon, the makespan and a fill time per free target."""
     by_comp: dict[int, list[Option]] = {c: [] for c in tasks.comps}
     for o in tasks.options:
         by_comp[o.comp].append(o)
@@ -142,29 +169,39 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
             f"{tasks.scenario.source}: {len(tasks.comps)} components to place on "
             f"{len(free_targets)} free targets"
         )
-    fill = {t: model.NewIntVar(0, horizon, f"fill_{t}") for t in free_targets}
-    start, end, presence = {}, {}, {}
-    intervals, by_crane = [], {}
-    for c, opts in by_comp.items():
+    m = _Model(model, by_comp, horizon, free_targets, makespan)
+    m.fill = {t: model.NewIntVar(0, horizon, f"fill_{t}") for t in free_targets}
+    return m
+
+
+def _add_tasks(m: _Model, tasks: Tasks) -> None:
+    """Each component one task of one option (crane, target); each free target filled once."""
+    model, horizon, start, end = m.model, m.horizon, m.start, m.end
+    for c, opts in m.by_comp.items():
         start[c] = model.NewIntVar(0, horizon, f"start_{c}")
         end[c] = model.NewIntVar(0, horizon, f"end_{c}")
-        model.Add(makespan >= end[c])
+        model.Add(m.makespan >= end[c])
         for o in opts:
             p = model.NewBoolVar(f"p_{c}_{o.target}_{o.crane}")
-            presence[o] = p
+            m.presence[o] = p
             iv = model.NewOptionalFixedSizeIntervalVar(start[c], o.duration, p, f"iv_{o}")
-            intervals.append(iv)
-            by_crane.setdefault(o.crane, []).append((iv, o, p))
+            m.intervals.append(iv)
+            m.by_crane.setdefault(o.crane, []).append((iv, o, p))
             model.Add(end[c] == start[c] + o.duration).OnlyEnforceIf(p)
-            model.Add(fill[o.target] == end[c]).OnlyEnforceIf(p)
-        model.AddExactlyOne(presence[o] for o in opts)
-    for t in free_targets:  # as many components as free targets: each filled once
-        model.AddExactlyOne(presence[o] for o in tasks.options if o.target == t)
+            model.Add(m.fill[o.target] == end[c]).OnlyEnforceIf(p)
+        model.AddExactlyOne(m.presence[o] for o in opts)
+    for t in m.free_targets:  # as many components as free targets: each filled once
+        model.AddExactlyOne(m.presence[o] for o in tasks.options if o.target == t)
 
-    # Readiness: a target is supported from the step its last support is assembled.
+
+def _add_readiness(m: _Model, tasks: Tasks) -> None:
+    """A target is supported from the step its last support is assembled: a component
+    arrives no earlier, and a beam or panel is claimed no earlier than some target it may
+    fill is supported."""
+    model, horizon = m.model, m.horizon
     ready = {}
-    for t in free_targets:
-        times = [fill[s] for s in tasks.supports[t] if s in fill]
+    for t in m.free_targets:
+        times = [m.fill[s] for s in tasks.supports[t] if s in m.fill]
         if not times:
             ready[t] = 0
         elif len(times) == 1:
@@ -172,9 +209,9 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
         else:
             ready[t] = model.NewIntVar(0, horizon, f"ready_{t}")
             model.AddMaxEquality(ready[t], times)
-    for o, p in presence.items():
+    for o, p in m.presence.items():
         if not isinstance(ready[o.target], int):
-            model.Add(start[o.comp] + 1 + o.moves >= ready[o.target]).OnlyEnforceIf(p)
+            model.Add(m.start[o.comp] + 1 + o.moves >= ready[o.target]).OnlyEnforceIf(p)
     for c in tasks.comps:
         if not waits_for_target(tasks.scenario.components[c].kind):
             continue
@@ -183,27 +220,30 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
             continue  # some target it may fill is supported from the start
         earliest = model.NewIntVar(0, horizon, f"claimable_{c}")
         model.AddMinEquality(earliest, compatible)
-        model.Add(start[c] + 1 >= earliest)
+        model.Add(m.start[c] + 1 >= earliest)
 
-    # Cranes: identical ones as one cumulative resource, cranes with reach one by one.
-    n = tasks.n_cranes
-    model.AddCumulative(intervals, [1] * len(intervals), n)
-    model.Add(n * makespan >= sum(o.duration * p for o, p in presence.items()))
-    if None not in by_crane:
-        for items in by_crane.values():
+
+def _add_cranes(m: _Model, n: int) -> None:
+    """Identical cranes as one cumulative resource, cranes with reach one by one."""
+    model, makespan = m.model, m.makespan
+    model.AddCumulative(m.intervals, [1] * len(m.intervals), n)
+    model.Add(n * makespan >= sum(o.duration * p for o, p in m.presence.items()))
+    if None not in m.by_crane:
+        for items in m.by_crane.values():
             model.AddNoOverlap(iv for iv, _, _ in items)
             model.Add(makespan >= sum(o.duration * p for _, o, p in items))
-    model.Minimize(makespan)
 
-    if hint is not None:
-        for c, (s, chosen) in hint.items():
-            model.AddHint(start[c], s)
-            model.AddHint(end[c], s + chosen.duration)
-            model.AddHint(fill[chosen.target], s + chosen.duration)
-            for o in by_comp[c]:
-                model.AddHint(presence[o], o == chosen)
-        model.AddHint(makespan, max(s + o.duration for s, o in hint.values()))
-    return model, makespan
+
+def _add_hint(m: _Model, hint: dict[int, tuple[int, Option]]) -> None:
+    """A schedule of the relaxation as the solver's starting point."""
+    model = m.model
+    for c, (s, chosen) in hint.items():
+        model.AddHint(m.start[c], s)
+        model.AddHint(m.end[c], s + chosen.duration)
+        model.AddHint(m.fill[chosen.target], s + chosen.duration)
+        for o in m.by_comp[c]:
+            model.AddHint(m.presence[o], o == chosen)
+    model.AddHint(m.makespan, max(s + o.duration for s, o in hint.values()))
 
 
 def floor_of(tasks: Tasks) -> int:

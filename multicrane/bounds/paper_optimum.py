@@ -169,15 +169,3 @@ def _replay(sim: Simulator, actions: list[int]) -> tuple[float, tuple[tuple[str,
     )
     return total, filled, sim.done
 
-
-class PlanPolicy:
-    """Replays a plan's actions, one per call (for evaluation and recording)."""
-
-    def __init__(self, p: Plan):
-        self.actions = list(p.actions)
-        self.i = 0
-
-    def __call__(self, observation=None) -> int:
-        a = self.actions[self.i] if self.i < len(self.actions) else 0
-        self.i += 1
-        return a

@@ -9,6 +9,8 @@ Each subcommand module exposes ``register(subparsers)``, which adds its parser a
 matplotlib, ray) only when their command runs; a missing one is reported with the extra that
 installs it. This package is the top floor of the project: the only part of ``multicrane``
 that may import ``policies``.
+
+May import: every room, and ``policies``.
 """
 
 from __future__ import annotations

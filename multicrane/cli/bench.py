@@ -8,6 +8,9 @@ import time
 import numpy as np
 
 from multicrane.cli.common import formatter
+from multicrane.envs.decision_modes import DECISION_MODES, DEFAULT_DECISIONS, decision_mode
+from multicrane.episodes.random_actions import random_legal_policy
+from multicrane.episodes.rollout import Stopwatch, play, play_seeds
 
 DESCRIPTION = """Environment throughput: joint steps per second under random legal actions.
 
@@ -50,7 +53,7 @@ def register(sub) -> None:
     p.add_argument("--auto", action="store_true", help="automatic claiming and assembly")
     p.add_argument("--all", action="store_true", help="every shipped scenario with 1 and 4 cranes")
     p.add_argument("--paper", metavar="CONFIG", nargs="*", help="paper mode configurations")
-    p.add_argument("--decisions", choices=("motion", "task"), default="motion",
+    p.add_argument("--decisions", choices=tuple(DECISION_MODES), default=DEFAULT_DECISIONS,
                    help="task: time task-level decision rounds (planning included)")
     p.add_argument("--scaling", action="store_true",
                    help="costs of generated sites of growing size (multicrane.reports.scaling)")
@@ -59,63 +62,60 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def bench_parallel(
+def joint_steps_per_second(
     scenario, cranes: int | None, steps: int, seed: int = 0, auto: bool = False
 ) -> float:
-    """Joint steps per second of the PettingZoo parallel environment."""
+    """Joint steps per second of the PettingZoo parallel environment: the wall time of
+    ``steps`` joint steps (each with its random legal joint action, drawn for all cranes at
+    once by ``random_legal_policy``, and the resets when episodes end)."""
     import multicrane
 
     env = multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto)
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
-    agents = env.possible_agents
-    start = time.perf_counter()
-    for _ in range(steps):
-        # One uniform legal action per crane, drawn for all cranes at once: the largest
-        # random key among the legal actions (as a vectorised masked policy would sample).
-        masks = np.stack([obs[a]["action_mask"] for a in agents])
-        keys = rng.random(masks.shape) * masks
-        choice = keys.argmax(axis=1).tolist()
-        obs, _, _, _, _ = env.step(dict(zip(agents, choice, strict=True)))
-        if not env.agents:
-            obs, _ = env.reset()
-    return steps / (time.perf_counter() - start)
+    policy = random_legal_policy(env.possible_agents, np.random.default_rng(seed))
+    return _steps_per_second(env, policy, seed, steps)
 
 
-def bench_paper(config: str, steps: int, seed: int = 0) -> float:
-    """Steps per second of the single-agent paper mode, uniform random actions."""
+def paper_steps_per_second(config: str, steps: int, seed: int = 0) -> float:
+    """Steps per second of the single-agent paper mode: the wall time of ``steps`` steps of
+    uniform random moves (drawn before the clock starts) and the resets when episodes end."""
     import multicrane
 
     env = multicrane.PaperAssemblyEnv(config)
-    rng = np.random.default_rng(seed)
-    env.reset(seed=seed)
-    actions = rng.integers(6, size=steps).tolist()
-    start = time.perf_counter()
-    for a in actions:
-        _, _, terminated, truncated, _ = env.step(a)
-        if terminated or truncated:
-            env.reset()
-    return steps / (time.perf_counter() - start)
+    moves = iter(np.random.default_rng(seed).integers(6, size=steps).tolist())
+
+    def policy(_observation) -> int:
+        return next(moves)
+
+    return _steps_per_second(env, policy, seed, steps)
 
 
-def bench_task(scenario, cranes: int | None, rounds: int, policy: str) -> list[float]:
-    """Seconds per task-level decision round (policy call + env.step), whole episodes from
-    seed 0 on, until ``rounds`` rounds are timed."""
+def _steps_per_second(env, policy, seed: int, steps: int) -> float:
+    """``steps`` over the wall time of ``play``ing them from ``reset(seed=seed)``: the clock
+    starts after that first reset and counts the resets when episodes end."""
+    begun: list[float] = []
+
+    def start_clock(_env) -> None:
+        if not begun:
+            begun.append(time.perf_counter())
+
+    play(env, policy, seed, steps=steps, repeat=True, on_reset=start_clock)
+    return steps / (time.perf_counter() - begun[0])
+
+
+def task_round_seconds(scenario, cranes: int | None, rounds: int, policy: str) -> np.ndarray:
+    """Seconds of each task-level decision round (the policy's call + its ``env.step``, the
+    resets not counted), whole episodes from seed 0 on, until ``rounds`` rounds are timed."""
     import multicrane
     import policies
 
     env = multicrane.parallel_env(scenario, n_cranes=cranes, decisions="task")
-    times: list[float] = []
-    seed = 0
-    while len(times) < rounds:
-        obs, _ = env.reset(seed=seed)
-        act = policies.make(policy, env, seed=seed)
-        while env.agents and len(times) < rounds:
-            start = time.perf_counter()
-            obs, *_ = env.step(act(obs))
-            times.append(time.perf_counter() - start)
-        seed += 1
-    return times
+    calls, steps = Stopwatch(), Stopwatch()
+
+    def make(env, seed):
+        return calls.timing(policies.make(policy, env, seed=seed))
+
+    play_seeds(env, make, rounds, step_watch=steps)
+    return np.add(calls.seconds, steps.seconds)
 
 
 def _runs(args: argparse.Namespace) -> list[tuple[str, object, int | None]]:
@@ -141,7 +141,7 @@ def run_task(args: argparse.Namespace) -> int:
     for name, scenario, n in runs:
         shown = n if n is not None else multicrane.load_scenario(scenario).cranes
         for policy in ("prioritized", "random"):
-            t = np.array(bench_task(scenario, n, rounds, policy))
+            t = task_round_seconds(scenario, n, rounds, policy)
             print(f"{name:<12} {shown:>6} {policy:>12} {1 / t.mean():>10,.0f} "
                   f"{1000 * t.mean():>8.2f} {1000 * np.percentile(t, 95):>8.2f}")  # fmt: skip
     return 0
@@ -174,13 +174,13 @@ def run(args: argparse.Namespace) -> int:
 
     if args.scaling:
         return run_scaling(args)
-    if args.decisions == "task":
+    if decision_mode(args.decisions).task_level:
         return run_task(args)
 
     if args.paper is not None:
         print(f"{'config':<12} {'mode':>7} {'steps/s':>14}")
         for config in args.paper or multicrane.PAPER_CONFIGS:
-            rate = bench_paper(config, args.steps)
+            rate = paper_steps_per_second(config, args.steps)
             print(f"{config:<12} {'paper':>7} {rate:>14,.0f}")
         return 0
     try:
@@ -198,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
         if problem is not None:  # crane reach: a tower-crane scenario needs its own cranes
             print(f"{name:<12} {n:>6} skipped: {problem}")
             continue
-        rate = bench_parallel(scenario, n, args.steps, auto=args.auto)
+        rate = joint_steps_per_second(scenario, n, args.steps, auto=args.auto)
         shown = n if n is not None else loaded.cranes
         mode = "auto" if args.auto else "claims"
         print(f"{name:<12} {shown:>6} {mode:>7} {rate:>14,.0f}")

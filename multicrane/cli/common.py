@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from multicrane.envs.decision_modes import DECISION_MODES, DEFAULT_DECISIONS
+
 # Importable module (first dotted part) -> the extra of pyproject.toml that installs it.
 EXTRAS = {
     "torch": "train",
@@ -58,7 +60,7 @@ def add_environment_args(p: argparse.ArgumentParser, required: bool = True) -> N
     where.add_argument("--scenario", help="multi-agent: shipped scenario name or .toml path")
     p.add_argument("--cranes", type=int, default=None, help="cranes (default: scenario's)")
     p.add_argument("--auto", action="store_true", help="multi-agent automatic mode")
-    p.add_argument("--decisions", choices=("motion", "task"), default="motion",
+    p.add_argument("--decisions", choices=tuple(DECISION_MODES), default=DEFAULT_DECISIONS,
                    help="multi-agent decision level: motion (every move) or task (which "
                    "component to which target)")  # fmt: skip
     add_events_arg(p)
@@ -92,10 +94,16 @@ def run_events(level: str | None, factories) -> str | None:
 
 def add_decisions_arg(p: argparse.ArgumentParser) -> None:
     """``--decisions LEVEL`` for commands that play run directories: default, their own."""
-    p.add_argument("--decisions", choices=("motion", "task"), default=None,
+    p.add_argument("--decisions", choices=tuple(DECISION_MODES), default=None,
                    help="multi-agent decision level: motion (every move) or task (which "
                    "component to which target); default: a run directory policy's training "
                    "level, else motion")  # fmt: skip
+
+
+def trained_decisions(factory) -> str:
+    """The decision mode a policy (``policies.factory``) plays at: its training run's, else
+    the default (``"motion"``)."""
+    return getattr(factory.config, "decisions", DEFAULT_DECISIONS)
 
 
 def run_decisions(level: str | None, factories) -> str:
@@ -104,13 +112,13 @@ def run_decisions(level: str | None, factories) -> str:
     ``"motion"``."""
     if level is not None:
         return level
-    found = {getattr(f.config, "decisions", "motion") for f in factories if f.config is not None}
+    found = {trained_decisions(f) for f in factories if f.config is not None}
     if len(found) > 1:
         raise ValueError(
             "the run directories were trained at different decision levels "
             f"({', '.join(sorted(found))}): give --decisions LEVEL"
         )
-    return found.pop() if found else "motion"
+    return found.pop() if found else DEFAULT_DECISIONS
 
 
 def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **options):
@@ -119,8 +127,10 @@ def make_env(paper: str | None, scenario=None, cranes=None, auto=False, **option
     import multicrane
 
     if paper:
-        if options.get("decisions", "motion") != "motion":
-            raise ValueError("--decisions task is a multi-agent option (use --scenario)")
+        if options.get("decisions", DEFAULT_DECISIONS) != DEFAULT_DECISIONS:
+            raise ValueError(
+                f"--decisions {options['decisions']} is a multi-agent option (use --scenario)"
+            )
         if options.get("events") is not None:
             raise ValueError(
                 f"--events {options['events']} is a multi-agent option (use --scenario)"

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from multicrane.cli.common import formatter
+from multicrane.envs.decision_modes import DECISION_MODES, decision_mode
 
 DESCRIPTION = """The main job (bash tools/demo.sh runs it): train one policy shared by every
 crane of a site, compare it with the planners and the proven lower bound, and save a replay.
@@ -35,7 +36,7 @@ def register(sub) -> None:
                        description=DESCRIPTION, **formatter())  # fmt: skip
     p.add_argument("--scenario", default="hall-4c")
     p.add_argument("--cranes", type=int, default=4)
-    p.add_argument("--decisions", default="task", choices=("task", "motion"),
+    p.add_argument("--decisions", default="task", choices=tuple(DECISION_MODES),
                    help="task: the set policy picks tasks; motion: an MLP picks moves")  # fmt: skip
     p.add_argument("--steps", type=int, default=None,
                    help="crane decisions of PPO (default: 100,000 task, 300,000 motion)")
@@ -53,7 +54,7 @@ def register(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     from multicrane.cli import main
 
-    task = args.decisions == "task"
+    task = decision_mode(args.decisions).task_level
     kind = "set" if task else args.algo
     steps = args.steps or (100_000 if task else 300_000)
     run_dir = args.out / f"{args.scenario}-{args.cranes}c-{kind}-s{args.seed}"

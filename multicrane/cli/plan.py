@@ -17,6 +17,7 @@ from multicrane.cli.common import (
     run_decisions,
     run_events,
 )
+from multicrane.envs.decision_modes import decision_mode
 
 DESCRIPTION = """Run policies on a scenario and print what they achieve.
 
@@ -131,8 +132,9 @@ def run(args: argparse.Namespace) -> int:
         if not args.paper:
             args.events = run_events(args.events, makers)
             args.decisions = run_decisions(args.decisions, makers)
-        elif args.decisions == "task":
-            return error("--decisions task is a multi-agent option (not with --paper)")
+        elif args.decisions is not None and decision_mode(args.decisions).task_level:
+            return error(f"--decisions {args.decisions} is a multi-agent option (not with "
+                         "--paper)")
         if is_set_ref(args.scenario) and not args.paper:
             if args.record or args.rrd or args.render:
                 return error("--record, --rrd and --render take one scenario, not a set")

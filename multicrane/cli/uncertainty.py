@@ -7,7 +7,7 @@ import json
 import time
 from pathlib import Path
 
-from multicrane.cli.common import error, formatter
+from multicrane.cli.common import error, formatter, trained_decisions
 
 DESCRIPTION = """Play policies on sites with events (late deliveries, crane breakdowns, closed
 zones; docs/uncertainty.md) at disruption levels none / low / high and report, per scenario x
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     except (ValueError, multicrane.ScenarioError, OSError) as exc:
         return error(exc, 1)
     makers = {f.label: f for f in factories.values()}
-    decisions = {f.label: getattr(f.config, "decisions", "motion") for f in factories.values()}
+    decisions = {f.label: trained_decisions(f) for f in factories.values()}
     began = time.perf_counter()
     cells, bounds = run_benchmark(
         scenarios, args.levels, makers, seeds, args.bound_time,

@@ -12,21 +12,13 @@ from typing import NamedTuple
 
 
 class Kind(IntEnum):
-    """What a component is. Components of the same kind and shape are interchangeable."""
+    """What a component is: the codes of the built-in kinds, whose rules are their entries in
+    ``multicrane.core.kinds``. Components of the same kind and shape are interchangeable."""
 
     COLUMN = 0
     BEAM = 1
     SLAB = 2  # a floor or roof panel: a horizontal rectangle one cell thick
     WALL = 3  # a wall panel: a vertical rectangle one cell thick
-
-
-PANELS = frozenset({Kind.SLAB, Kind.WALL})
-
-
-def waits_for_target(kind: int) -> bool:
-    """A component of this kind may be claimed (or given out) only while some target it may
-    fill is ready (free, supports assembled): beams and panels wait, columns never do."""
-    return kind != Kind.COLUMN
 
 
 class Status(IntEnum):

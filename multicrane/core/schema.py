@@ -9,8 +9,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from multicrane.core.codes import Kind
-
 Cell = tuple[int, int, int]
 Pose = tuple[Cell, Cell]  # (node 1, node 2): end cells of a straight component, corners of a panel
 
@@ -77,7 +75,7 @@ class ComponentSpec:
     """One prefabricated component. Its own target has the same index as the component."""
 
     id: str
-    kind: Kind
+    kind: int  # its code in the kind table (multicrane.core.kinds); a Kind for the built-in four
     length: int  # cells (a panel: all the cells of its rectangle)
     initial: Pose | None  # None: pre-built, or drawn by the random start rule
     target: Pose

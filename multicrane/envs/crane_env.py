@@ -10,9 +10,8 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from multicrane.core.codes import CLAIM_BASE, WAIT, Event, EventType, Status
+from multicrane.core.codes import Event, EventType
 from multicrane.core.schema import Scenario
-from multicrane.envs import reward as reward_rules
 from multicrane.envs.boundary import (
     action_index,
     as_integer,
@@ -20,21 +19,20 @@ from multicrane.envs.boundary import (
     handed_out,
     require_reset,
 )
+from multicrane.envs.decision_modes import DEFAULT_DECISIONS, DecisionMode, decision_mode
 from multicrane.envs.infos import TaskStepFacts, crane_infos
-from multicrane.envs.observation import Observer
-from multicrane.envs.task_mode import TaskMode
+from multicrane.envs.motion_mode import ModeSettings, describe_action
+from multicrane.render.image import SiteImage
 from multicrane.render.text import render_ansi
 from multicrane.scenario.loader import load_scenario
 from multicrane.sim.events import EventSpec, resolve
-from multicrane.sim.simulator import NOBODY, Simulator
+from multicrane.sim.simulator import Simulator
 from multicrane.sim.transitions import table_text
 
 ENV_VERSION = 1
-DECISIONS = ("motion", "task")
 REWARDS = ("paper", "makespan")
 REWARD_MODES = ("team", "split")
 OBS_FORMATS = ("dict", "flat")
-_INITIAL = int(Status.INITIAL)
 
 
 class MultiCraneEnv(ParallelEnv):
@@ -74,6 +72,9 @@ class MultiCraneEnv(ParallelEnv):
     ``multicrane.envs.task_observation`` (``task_site_planes=True`` adds the site planes).
     ``infos`` add ``elapsed`` (simulated steps), ``task_events`` and ``crane_steps``;
     ``env.task_feasible(crane, p)`` runs the search for a planner. See ``docs/task-mode.md``.
+    The levels are the decision modes of ``multicrane.envs.decision_modes`` (one table by
+    name): ``env.decisions`` is the name, ``env.mode`` the mode the env delegates to (a
+    planner reaches the task book as ``env.mode.task_book()``).
 
     **Observation.** ``{"observation": float32 vector in [0, 1], "action_mask": int8 vector}``;
     with ``obs_format="flat"`` only the vector (a ``Box``; the mask then comes from
@@ -111,7 +112,8 @@ class MultiCraneEnv(ParallelEnv):
     **Arguments.** ``scenario`` (shipped name like ``"e3s2"``, a path, or a ``Scenario``),
     ``n_cranes`` (default: the scenario's), ``auto`` (False), ``strict`` (False),
     ``max_steps`` (default: the scenario's ``step_limit``), ``max_cycles`` (None),
-    ``render_mode`` (None, ``"ansi"`` or ``"human"``: the live rerun viewer of
+    ``render_mode`` (None, ``"ansi"``, ``"rgb_array"``: an isometric picture of the site,
+    ``multicrane.render.image``, or ``"human"``: the live rerun viewer of
     ``multicrane.render.live``, needs the ``replay`` extra), ``decisions`` (``"motion"`` or
     ``"task"``), ``reward`` (``"paper"`` or ``"makespan"``), ``reward_mode`` (``"team"`` or
     ``"split"``), ``obs_format`` (``"dict"`` or ``"flat"``), ``info_events`` (False),
@@ -129,7 +131,7 @@ class MultiCraneEnv(ParallelEnv):
 
     metadata = {
         "name": f"multicrane_v{ENV_VERSION}",
-        "render_modes": ["ansi", "human"],
+        "render_modes": ["ansi", "rgb_array", "human"],
         "render_fps": 4,
         "is_parallelizable": True,
     }
@@ -142,7 +144,7 @@ class MultiCraneEnv(ParallelEnv):
         strict: bool = False,
         max_steps: int | None = None,
         render_mode: str | None = None,
-        decisions: str = "motion",
+        decisions: str = DEFAULT_DECISIONS,
         reward: str = "paper",
         task_patience: int = 20,
         task_site_planes: bool = False,
@@ -153,12 +155,7 @@ class MultiCraneEnv(ParallelEnv):
         info_mask: bool | None = None,
         events: EventSpec | str | None = None,
     ):
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None, 'ansi' or 'human', got {render_mode!r}")
-        if reward_mode not in REWARD_MODES:
-            raise ValueError(f"reward_mode must be one of {REWARD_MODES}, got {reward_mode!r}")
-        if obs_format not in OBS_FORMATS:
-            raise ValueError(f"obs_format must be one of {OBS_FORMATS}, got {obs_format!r}")
+        _check_choices(render_mode, self.metadata["render_modes"], reward_mode, obs_format)
         self.reward_mode = reward_mode
         self.obs_format = obs_format
         self.info_events = bool(info_events)
@@ -166,12 +163,9 @@ class MultiCraneEnv(ParallelEnv):
         self.max_cycles = as_integer(max_cycles, "max_cycles") if max_cycles is not None else None
         if self.max_cycles is not None and self.max_cycles < 1:
             raise ValueError(f"max_cycles must be at least 1, got {max_cycles!r}")
-        if decisions not in DECISIONS:
-            raise ValueError(f"decisions must be one of {DECISIONS}, got {decisions!r}")
+        mode_class = decision_mode(decisions)
         if reward not in REWARDS:
             raise ValueError(f"reward must be one of {REWARDS}, got {reward!r}")
-        if decisions == "task" and auto:
-            raise ValueError("decisions='task' needs the claiming mode, not auto=True")
         self.decisions = decisions
         self.reward = reward
         self.scenario = load_scenario(scenario)
@@ -180,12 +174,9 @@ class MultiCraneEnv(ParallelEnv):
         self.step_limit = limit if limit is not None else self.scenario.step_limit
         spec = resolve(events, self.scenario)
         self.sim = Simulator(self.scenario, n_cranes, auto, spec, self.step_limit)
-        self.task_mode: TaskMode | None = None
-        if decisions == "task":
-            self.task_mode = TaskMode(self, task_patience, task_site_planes)
-            self.observer = self.task_mode.observer
-        else:
-            self.observer = Observer(self.sim)
+        settings = ModeSettings(reward, self.step_limit, task_patience, task_site_planes)
+        self.mode: DecisionMode = mode_class(self.sim, settings)
+        self.observer = self.mode.observer
         self.observation_layout = self.observer.layout
         self.auto = auto
         self.strict = strict
@@ -195,8 +186,7 @@ class MultiCraneEnv(ParallelEnv):
         n = self.sim.n_cranes
         self.possible_agents = [f"crane_{i}" for i in range(n)]
         self.agents: list[str] = []
-        n_actions = self.sim.site.n_actions if self.task_mode is None else self.task_mode.n_actions
-        self.n_actions = n_actions
+        self.n_actions = n_actions = self.mode.n_actions
         self._action_space = spaces.Discrete(n_actions)
         vector = spaces.Box(0.0, 1.0, (self.observer.layout.size,), np.float32)
         self._observation_space = (
@@ -212,6 +202,7 @@ class MultiCraneEnv(ParallelEnv):
         self.last_site_events: tuple = ()  # the schedule's events of the last step or reset
         self.cycles = 0
         self._human = None
+        self._image: SiteImage | None = None
         self._rng: np.random.Generator | None = None
         self._masks: list[np.ndarray] = []  # the env's own; callers get copies (_shown)
         self._shown: list[np.ndarray] = []
@@ -238,19 +229,14 @@ class MultiCraneEnv(ParallelEnv):
             self._rng = np.random.default_rng(seed)
         self.cycles = 0
         self.sim.reset(self._rng, schedule=(options or {}).get("schedule"))
-        self.observer.reset(self.step_limit)
         self.agents = list(self.possible_agents)
         self.total_reward = 0.0
-        if self.task_mode is not None:
-            self.task_mode.reset()
+        facts = self.mode.reset(self._rng)
         observations = self._observe()
         n = self.sim.n_cranes
         self.last_events = [() for _ in range(n)]
         self.last_site_events = tuple(self.sim.site_log)
-        task = None
-        if self.task_mode is not None:
-            task = TaskStepFacts([() for _ in range(n)], 0, 0)
-        infos = self._infos([0.0] * n, task)
+        infos = self._infos([0.0] * n, facts)
         if self.render_mode == "human":
             self._human_view().reset(self)
         return observations, infos
@@ -259,16 +245,8 @@ class MultiCraneEnv(ParallelEnv):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode: call reset() first")
         joint = self._joint_action(actions)
-        n, mark = self.sim.n_cranes, len(self.sim.site_log)
-        task = None
-        if self.task_mode is not None:
-            r, terms, per_crane, task = self.task_mode.step(joint)
-        else:
-            out, r, terms, _ = self._physical_step(joint)
-            lists: list[list[Event]] = [[] for _ in range(n)]
-            for e in out.events:
-                lists[e.crane].append(e)
-            per_crane = [tuple(x) for x in lists]
+        mark = len(self.sim.site_log)
+        r, terms, per_crane, facts = self.mode.step(joint)
         self.cycles += 1
         self.last_events = per_crane
         self.last_site_events = tuple(self.sim.site_log[mark:])
@@ -286,14 +264,14 @@ class MultiCraneEnv(ParallelEnv):
             rewards = {a: float(terms[i]) for i, a in enumerate(agents)}
         terminations = dict.fromkeys(agents, complete)
         truncations = dict.fromkeys(agents, truncated)
-        infos = self._infos(terms, task)
+        infos = self._infos(terms, facts)
         if complete or truncated:
             self.agents = []
         if self.render_mode == "human":
             self._human_view().step(self, r)
         return observations, rewards, terminations, truncations, infos
 
-    def _infos(self, terms, task: TaskStepFacts | None) -> dict[str, dict[str, Any]]:
+    def _infos(self, terms, facts: TaskStepFacts | None) -> dict[str, dict[str, Any]]:
         return crane_infos(
             self.possible_agents,
             self.last_events,
@@ -301,23 +279,9 @@ class MultiCraneEnv(ParallelEnv):
             self._shown,
             events=self.info_events,
             mask=self.info_mask,
-            task=task,
+            task=facts,
             site=self.last_site_events if self.sim.events is not None else None,
         )
-
-    def _physical_step(self, joint: list[int]):
-        """One simulated step with one motion action per crane (the crane order drawn from
-        the episode's generator): ``(outcome, reward, reward terms, paper reward)``."""
-        sim = self.sim
-        n = sim.n_cranes
-        order = self._rng.permutation(n).tolist() if n > 1 else None
-        out = sim.step(joint, order)
-        # Reward: from the step's outcome (see multicrane.envs.reward).
-        paper, progress_by, over = reward_rules.step_reward(sim, out)
-        if self.reward == "paper":
-            return out, paper, reward_rules.split(paper, n, progress_by, over), paper
-        r = reward_rules.makespan_reward(sim.scenario.reward, sim.done)
-        return out, r, [r / n] * n, paper
 
     def _joint_action(self, actions: dict[str, Any]) -> list[int]:
         joint = []
@@ -326,20 +290,15 @@ class MultiCraneEnv(ParallelEnv):
                 raise KeyError(f"step(): no action for {agent!r}; every crane acts every step")
             a = action_index(actions[agent], agent, self.n_actions)
             if self.strict and not self._masks[i][a]:
-                what = describe_action(a) if self.task_mode is None else self.task_mode.describe(a)
+                what = self.mode.describe(a)
                 raise ValueError(f"step(): {agent} sent illegal action {a} ({what})")
             joint.append(a)
         return joint
 
     def _observe(self) -> dict[str, Any]:
-        if self.task_mode is not None:
-            obs = self.task_mode.observe()
-            self._masks = list(self.observer.masks)
-            np.concatenate(obs, out=self._state)
-        else:
-            joint = self._motion_observations()
-            self._state = joint.reshape(-1)  # fresh each step: the rows are views of it
-            obs = list(joint)
+        obs, masks = self.mode.observe()
+        self._masks = masks
+        np.concatenate(obs, out=self._state)
         self._shown = handed_out(self._masks)
         if self.obs_format == "flat":
             return dict(zip(self.possible_agents, obs, strict=True))
@@ -348,32 +307,18 @@ class MultiCraneEnv(ParallelEnv):
             for i, a in enumerate(self.possible_agents)
         }
 
-    def _motion_observations(self) -> np.ndarray:
-        sim = self.sim
-        claimable = sim.claimable_components()
-        if self.auto:
-            status = sim.state.status
-            ready = [c for c in sim.state.held if c != NOBODY and status[c] == _INITIAL]
-        else:
-            ready = claimable
-        self.observer.update(sim.take_changed(), ready)
-        self._masks = list(sim.action_masks())
-        return self.observer.observe_all()
-
     # -- extras --------------------------------------------------------------------------------
 
     @property
     def wait_action(self) -> int:
         """The action that waits: ``0`` in task mode, ``WAIT`` (6) at the motion level."""
-        return 0 if self.task_mode is not None else WAIT
+        return self.mode.wait_action
 
     def task_feasible(self, crane: int, task: int) -> bool:
         """Task mode: would ``task`` start for ``crane`` now (the carrier's space-time search
         succeeds)? The plan found is kept and used if the crane chooses the task in the next
         ``step`` (see ``multicrane.tasks.book.TaskBook.feasible``)."""
-        if self.task_mode is None:
-            raise RuntimeError("task_feasible() needs decisions='task'")
-        return self.task_mode.feasible(int(crane), int(task))
+        return self.mode.feasible(int(crane), int(task))
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """The current legal-action mask of every crane (copies)."""
@@ -387,10 +332,14 @@ class MultiCraneEnv(ParallelEnv):
         require_reset(bool(self._masks), "state")
         return self._state.copy()
 
-    def render(self) -> str | None:
+    def render(self) -> str | np.ndarray | None:
         require_reset(bool(self._masks), "render")
         if self.render_mode == "ansi":
             return render_ansi(self.sim)
+        if self.render_mode == "rgb_array":
+            if self._image is None:
+                self._image = SiteImage(self.sim)
+            return self._image.draw(self.sim)
         return None  # "human": every reset and step is already streamed to the viewer
 
     def _human_view(self):
@@ -409,11 +358,13 @@ class MultiCraneEnv(ParallelEnv):
 MultiCraneEnv.__doc__ += "\n" + indent(table_text(), "    ") + "\n"
 
 
-def describe_action(action: int) -> str:
-    names = ["x-1", "y-1", "x+1", "y+1", "up", "down", "wait", "assemble"]
-    if action < CLAIM_BASE:
-        return names[action]
-    return f"claim component {action - CLAIM_BASE}"
+def _check_choices(render_mode, render_modes, reward_mode: str, obs_format: str) -> None:
+    if render_mode is not None and render_mode not in render_modes:
+        raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
+    if reward_mode not in REWARD_MODES:
+        raise ValueError(f"reward_mode must be one of {REWARD_MODES}, got {reward_mode!r}")
+    if obs_format not in OBS_FORMATS:
+        raise ValueError(f"obs_format must be one of {OBS_FORMATS}, got {obs_format!r}")
 
 
 __all__ = ["MultiCraneEnv", "EventType", "describe_action"]

@@ -18,7 +18,8 @@ Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening)
    ==  ===========================================================================
 
 2. ``components``: a (C, 14) table in scenario order (claim action ``8 + i`` names row i):
-   status one-hot (4), ready, held by a crane, held by this crane, is a beam, node 1 and
+   status one-hot (4), ready, held by a crane, held by this crane, is a beam (its kind's
+   ``beam_feature``, ``multicrane.core.kinds``: every kind shares the planes), node 1 and
    node 2 as (x, y, z) divided by the site size (a panel: two opposite corners of its box).
 3. ``crane``: 9 values: holds a component, it is in transit, it has arrived, its moves /
    move limit (clipped to 1), past the move limit, assembly steps left / assembly steps,
@@ -42,11 +43,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from multicrane.core.codes import Kind, Status
+from multicrane.core.codes import Status
+from multicrane.core.kinds import kind_spec
 from multicrane.sim.simulator import NOBODY, WALL, Simulator
 
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
-_BEAM = int(Kind.BEAM)
 
 N_SHARED = 7
 N_OWN = 2
@@ -186,7 +187,7 @@ class Observer:
         self._assembly_steps = sim.scenario.assembly_steps
         self._move_limit = sim.site.move_limit
         self._limit = max(self._move_limit, 1)
-        self._kind = sim.site.kind
+        self._beam = [float(kind_spec(k).beam_feature) for k in sim.site.kind]
         self._n_components = sim.site.n_components
 
     def __getstate__(self) -> dict:
@@ -288,14 +289,11 @@ class Observer:
             return
         # The component table row (the "held by this crane" column is per crane).
         self.table[c] = (
-            status == _INITIAL,
-            status == _IN_TRANSIT,
-            status == _ARRIVED,
-            status == _ASSEMBLED,
+            status == _INITIAL, status == _IN_TRANSIT, status == _ARRIVED, status == _ASSEMBLED,
             ready,
             st.holder[c] != NOBODY,
             0.0,
-            self._kind[c] == _BEAM,
+            self._beam[c],
             *self._scaled[cells[0]],
             *self._scaled[cells[-1]],
         )
@@ -388,13 +386,8 @@ class Observer:
             obs[self._components_start + comp * COMPONENT_FEATURES + 6] = 1.0
             status = int(st.status[comp])
             moves = int(st.moves[comp])
-            held = [
-                1.0,
-                status == _IN_TRANSIT,
-                status == _ARRIVED,
-                min(moves / self._limit, 1.0),
-                moves > self._move_limit,
-            ]
+            held = [1.0, status == _IN_TRANSIT, status == _ARRIVED,
+                    min(moves / self._limit, 1.0), moves > self._move_limit]  # fmt: skip
         else:
             held = [0.0] * 5
         obs[self._crane] = (

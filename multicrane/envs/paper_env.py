@@ -25,6 +25,7 @@ from multicrane.envs.observation import (
     PlaneSpec,
 )
 from multicrane.envs.reward import step_reward
+from multicrane.render.image import SiteImage
 from multicrane.render.text import render_ansi
 from multicrane.scenario.loader import load_scenario
 from multicrane.sim.simulator import NOBODY, Simulator
@@ -95,7 +96,8 @@ class PaperAssemblyEnv(gym.Env):
     ``Scenario`` of your own with one crane); ``mask_blocked_moves`` (False): when True,
     ``action_masks()`` and ``info["action_mask"]`` mark the moves that would be blocked (when
     all six would be, or during the pass-over step, all are allowed); when False they allow
-    all six, so the default MDP stays the paper's. ``render_mode``: None or ``"ansi"``.
+    all six, so the default MDP stays the paper's. ``render_mode``: None, ``"ansi"`` or
+    ``"rgb_array"`` (an isometric picture of the site, ``multicrane.render.image``).
 
     **Infos.** Numbers only by default (every batching library takes them): ``event_counts``
     (per ``EventType``, see ``multicrane.envs.infos``), ``component_index`` (the current
@@ -106,7 +108,7 @@ class PaperAssemblyEnv(gym.Env):
     **Version history.** v0: the corrected environment of ``docs/paper-spec.md`` section 7.
     """
 
-    metadata = {"render_modes": ["ansi"], "render_fps": 4}
+    metadata = {"render_modes": ["ansi", "rgb_array"], "render_fps": 4}
 
     def __init__(
         self,
@@ -118,9 +120,9 @@ class PaperAssemblyEnv(gym.Env):
         info_mask: bool = False,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            # Gymnasium's convention: warn, do not fail (SB3's make_vec_env asks for
-            # "rgb_array" by default); render() then returns None.
-            gym.logger.warn(f"render_mode {render_mode!r} is not supported (only 'ansi')")
+            # Gymnasium's convention: warn, do not fail; render() then returns None.
+            supported = self.metadata["render_modes"]
+            gym.logger.warn(f"render_mode {render_mode!r} is not supported (only {supported})")
         if scenario is None:
             if config is None:
                 raise ValueError("give a paper configuration (config=) or a scenario (scenario=)")
@@ -134,6 +136,7 @@ class PaperAssemblyEnv(gym.Env):
         self.info_mask = bool(info_mask)
         self.last_events: tuple = ()
         self.render_mode = render_mode
+        self._image: SiteImage | None = None
         X, Y, H = self.scenario.size
         self.plan_shape = (X, Y, N_PAPER_CHANNELS)
         high = float(max(H, self.scenario.n_components))
@@ -194,6 +197,12 @@ class PaperAssemblyEnv(gym.Env):
         moves = self.sim.action_masks()[0, :N_MOVES]
         return moves if moves.any() else np.ones(N_MOVES, dtype=np.int8)
 
-    def render(self) -> str | None:
+    def render(self) -> str | np.ndarray | None:
         require_reset(self.sim.state is not None, "render")
-        return render_ansi(self.sim) if self.render_mode == "ansi" else None
+        if self.render_mode == "ansi":
+            return render_ansi(self.sim)
+        if self.render_mode == "rgb_array":
+            if self._image is None:
+                self._image = SiteImage(self.sim)
+            return self._image.draw(self.sim)
+        return None

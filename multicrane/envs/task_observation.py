@@ -7,7 +7,8 @@ positions are site coordinates divided by it; path lengths and times are divided
 ``D = X + Y + H`` (path lengths) or ``D + assembly_steps + 1`` (times) and clipped to 1.
 
 ``components`` (C rows, scenario order; ``COMPONENT_FEATURES`` then one column per crane):
-beam (1 for a beam, 0 for a column or panel); status one-hot (initial, in transit, arrived,
+beam (its kind's ``beam_feature``, ``multicrane.core.kinds``: 1 for a beam, 0 for a column or
+panel); status one-hot (initial, in transit, arrived,
 assembled); node 1 and node 2 of its cells now (x, y, z each); node 1 and node 2 of its own
 target; target_ready (its own target is free and its supports are assembled); claimable
 (a crane could take it now); taken (it is some crane's task); path (shortest path length
@@ -38,7 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from multicrane.core.codes import Kind, Status
+from multicrane.core.codes import Status
+from multicrane.core.kinds import kind_spec
 from multicrane.envs.observation import N_OWN, N_SHARED, Observer
 from multicrane.sim.simulator import NOBODY
 from multicrane.tasks.book import TaskBook
@@ -52,7 +54,6 @@ CRANE_FEATURES = (
     "self", "busy", "time_left", "loaded", "lx", "ly", "lz", "base_x", "base_y", "radius",
 )  # fmt: skip
 TASK_FEATURES = ("component", "tx1", "ty1", "tz1", "tx2", "ty2", "tz2", "distance", "allowed")
-_BEAM = int(Kind.BEAM)
 _INITIAL = int(Status.INITIAL)
 
 
@@ -114,6 +115,7 @@ class TaskObserver:
             (X, Y) if sim.events is not None else None,
         )
         site = sim.site
+        self._beam = np.array([kind_spec(k).beam_feature for k in site.kind], dtype=bool)
         self._targets = np.array(
             [self._nodes(cells) for cells in site.target_cells], dtype=np.float32
         ).reshape(site.n_components, 6)
@@ -145,12 +147,45 @@ class TaskObserver:
     def observe_all(self) -> list[np.ndarray]:
         """One flat observation per crane, in crane order."""
         sim, book = self.sim, self.book
+        comp = self._component_rows()
+        cranes = self._crane_rows()
+        C, N = sim.site.n_components, sim.n_cranes
+        P = len(book.tasks)
+        tasks = np.zeros((P, len(TASK_FEATURES)), dtype=np.float32)
+        tasks[:, 0] = book.tasks.comp / max(C - 1, 1)
+        tasks[:, 1:7] = self._targets[book.tasks.target]
+        dist = np.where(book.static_ok, np.minimum(book.static_len / self.D, 1.0), 1.0)
+        masks = book.masks()
+        head = [comp.ravel(), None, None]
+        closed = self._closed_plan() if self.layout.events is not None else None
+        if self.planes is not None:
+            self.planes.update(sim.take_changed(), sim.claimable_components())
+        out = []
+        for k in range(N):
+            cr = cranes.copy()
+            cr[k, 0] = 1.0
+            tk = tasks.copy()
+            tk[:, 7] = dist[k]
+            tk[:, 8] = masks[k, 1:]
+            head[1], head[2] = cr.ravel(), tk.ravel()
+            parts = list(head)
+            if closed is not None:
+                parts.append(closed)
+            if self.planes is not None:
+                parts.append(self._site_planes(k))
+            out.append(np.concatenate(parts).astype(np.float32, copy=False))
+        self.masks = masks
+        return out
+
+    def _component_rows(self) -> np.ndarray:
+        """The ``components`` table, shared by every crane."""
+        sim, book = self.sim, self.book
         st = sim.state
         C, N = sim.site.n_components, sim.n_cranes
         events = self.layout.events is not None
         comp = np.zeros((C, len(COMPONENT_FEATURES) + N + events), dtype=np.float32)
         status = np.asarray(st.status)
-        comp[:, 0] = np.asarray(sim.site.kind) == _BEAM
+        comp[:, 0] = self._beam
         comp[np.arange(C), 1 + status] = 1.0
         for c in range(C):
             cells = st.cells[c] if st.cells[c] else st.pickup[c]
@@ -180,7 +215,13 @@ class TaskObserver:
             comp[late, :11] = 0.0  # only "not delivered" (and its own target) is known
             comp[late, 17:] = 0.0
             comp[:, -1] = st.delivered
+        return comp
 
+    def _crane_rows(self) -> np.ndarray:
+        """The ``cranes`` table without its ``self`` column (set per observing crane)."""
+        sim, book, st = self.sim, self.book, self.sim.state
+        N = sim.n_cranes
+        events = self.layout.events is not None
         cranes = np.zeros((N, len(CRANE_FEATURES) + events), dtype=np.float32)
         for k in range(N):
             cranes[k, 1] = book.busy(k)
@@ -192,36 +233,12 @@ class TaskObserver:
         cranes[:, 7:10] = self._reach
         if events:
             cranes[:, -1] = [sim.crane_up(k) for k in range(N)]
+        return cranes
 
-        P = len(book.tasks)
-        tasks = np.zeros((P, len(TASK_FEATURES)), dtype=np.float32)
-        tasks[:, 0] = book.tasks.comp / max(C - 1, 1)
-        tasks[:, 1:7] = self._targets[book.tasks.target]
-        dist = np.where(book.static_ok, np.minimum(book.static_len / self.D, 1.0), 1.0)
-        masks = book.masks()
-        head = [comp.ravel(), None, None]
-        closed = self._closed_plan() if events else None
-        if self.planes is not None:
-            self.planes.update(sim.take_changed(), sim.claimable_components())
-        out = []
-        for k in range(N):
-            cr = cranes.copy()
-            cr[k, 0] = 1.0
-            tk = tasks.copy()
-            tk[:, 7] = dist[k]
-            tk[:, 8] = masks[k, 1:]
-            head[1], head[2] = cr.ravel(), tk.ravel()
-            parts = list(head)
-            if closed is not None:
-                parts.append(closed)
-            if self.planes is not None:
-                full = self.planes.observe(k)
-                X, Y = self.layout.plan
-                shared = full[self.planes.layout.shared].reshape(X, Y, N_SHARED)
-                own = full[self.planes.layout.own].reshape(X, Y, N_OWN)
-                planes = np.concatenate([shared, own], axis=-1).ravel()
-                parts.append(planes)
-            out.append(np.concatenate(parts).astype(np.float32, copy=False))
-        self.masks = masks
-        return out
-
+    def _site_planes(self, crane: int) -> np.ndarray:
+        """The (X, Y, 9) site planes of the motion observation, flat."""
+        full = self.planes.observe(crane)
+        X, Y = self.layout.plan
+        shared = full[self.planes.layout.shared].reshape(X, Y, N_SHARED)
+        own = full[self.planes.layout.own].reshape(X, Y, N_OWN)
+        return np.concatenate([shared, own], axis=-1).ravel()

@@ -1,4 +1,4 @@
-"""Running episodes: the one episode loop, evaluation over seeds and their summary.
+"""Running episodes: the one episode loop, evaluation over seeds, their summary, random actions.
 
 May import: every room below it (``core`` to ``bounds``).
 """

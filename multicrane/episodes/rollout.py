@@ -4,6 +4,12 @@
     m = run_episode(env, policy, seed=0)                         # one episode
     episodes, summary = evaluate(env, make_policy, seeds=range(5))
 
+``play`` is the one episode loop (``run_episode`` measures an episode through its hooks; the
+throughput and cost programs call it directly): it plays a policy to the end of an episode,
+for a number of steps, or for exactly that many steps over as many episodes as it takes,
+``play_seeds`` over episodes on seeds 0, 1, ...; a ``Stopwatch`` passed as ``step_watch``
+times the ``env.step`` calls and nothing else, one wrapped around the policy its calls only.
+
 The environment is either the multi-agent ``ParallelEnv`` (``MultiCraneEnv``), where a policy
 is called as ``policy(observations) -> {agent: action}``, or the single-agent benchmark env
 (``PaperAssemblyEnv``, possibly behind Gymnasium wrappers), where it is called as
@@ -63,11 +69,94 @@ _FAILED = (EventType.ILLEGAL, EventType.CLAIM_CONFLICT, EventType.LIFT_BLOCKED)
 
 OnReset = Callable[[Any], None]
 OnStep = Callable[[Any, Any, float, dict], None]
+AfterStep = Callable[[Any, tuple], None]
 
 
 def is_multi_agent(env) -> bool:
     """True for a PettingZoo ``ParallelEnv`` (it has ``possible_agents``)."""
     return hasattr(env, "possible_agents")
+
+
+class Stopwatch:
+    """The seconds of each call it times, by one clock (``time.perf_counter`` unless given,
+    e.g. ``time.process_time`` for CPU time): ``watch.timing(fn)`` is ``fn`` timed."""
+
+    def __init__(self, clock: Callable[[], float] = time.perf_counter):
+        self.clock = clock
+        self.seconds: list[float] = []
+
+    def timing(self, fn: Callable) -> Callable:
+        """``fn``, appending the seconds of each call (of that call only) to ``seconds``."""
+        clock, seconds = self.clock, self.seconds
+
+        def timed(*args):
+            start = clock()
+            out = fn(*args)
+            seconds.append(clock() - start)
+            return out
+
+        return timed
+
+
+def play(
+    env,
+    policy: Callable,
+    seed: int | None = None,
+    *,
+    steps: int | None = None,
+    repeat: bool = False,
+    step_watch: Stopwatch | None = None,
+    on_reset: OnReset | None = None,
+    after_step: AfterStep | None = None,
+) -> int:
+    """The one episode loop: play ``policy`` from ``env.reset(seed=seed)`` to the end of the
+    episode or for at most ``steps`` ``env.step`` calls; with ``repeat``, for exactly ``steps``
+    calls, resetting (``env.reset()``: the environment's random stream goes on) whenever an
+    episode ends. Returns the ``env.step`` calls made.
+
+    Hooks, free when not given: ``step_watch`` times each ``env.step`` call and nothing else
+    (time the policy by passing ``watch.timing(policy)``); ``on_reset(env)`` runs after each
+    reset; ``after_step(action, out)`` after each step, with the action sent and the tuple
+    ``env.step`` returned.
+    """
+    if repeat and steps is None:
+        raise ValueError("play(repeat=True) needs a number of steps")
+    step = env.step if step_watch is None else step_watch.timing(env.step)
+    multi = is_multi_agent(env)
+    observation = _reset(env, seed, on_reset)
+    made = 0
+    while steps is None or made < steps:
+        action = policy(observation)
+        out = step(action)
+        made += 1
+        if after_step is not None:
+            after_step(action, out)
+        if (not env.agents) if multi else (out[2] or out[3]):
+            if not repeat:
+                break
+            observation = _reset(env, None, on_reset)
+        else:
+            observation = out[0]
+    return made
+
+
+def _reset(env, seed: int | None, on_reset: OnReset | None):
+    """Reset ``env`` with ``seed``, run ``on_reset(env)``, return the reset's observation."""
+    observation, _ = env.reset(seed=seed)
+    if on_reset is not None:
+        on_reset(env)
+    return observation
+
+
+def play_seeds(env, make_policy: Callable[[Any, int], Callable], steps: int, **hooks) -> int:
+    """Episodes on seeds 0, 1, ... (``make_policy(env, seed)`` plays each) until ``steps``
+    ``env.step`` calls in all, the last episode cut short; ``hooks`` as for ``play``.
+    Returns the episodes played."""
+    made = seed = 0
+    while made < steps:
+        made += play(env, make_policy(env, seed), seed, steps=steps - made, **hooks)
+        seed += 1
+    return seed
 
 
 def run_episode(
@@ -92,23 +181,42 @@ def run_episode(
 
 
 class _Tally:
-    """Counters of one episode, turned into the result dict at the end."""
+    """Counters of one episode, kept by ``play``'s hooks, turned into the result dict at the
+    end: ``decide`` is the policy ``play`` calls, ``started`` its ``on_reset``."""
 
-    def __init__(self, n_cranes: int):
-        self.n = n_cranes
-        self.steps = self.calls = self.busy = self.blocked = self.failed = 0
+    def __init__(self, base, policy: Callable, on_reset: OnReset | None):
+        self.sim = base.sim
+        self.n = self.sim.n_cranes
+        self.steps = self.calls = self.busy = self.blocked = self.failed = self.start = 0
         self.total = 0.0
-        self.plan_s = self.plan_max = 0.0
+        self.terminated = False  # single-agent mode: the last step's ``terminated``
+        self.plan = Stopwatch()
+        self._policy = self.plan.timing(policy)
+        self._on_reset = on_reset
+        self.held_before: list[bool] = []
         self.events = dict.fromkeys((e.name for e in EventType), 0)
         self.actions: list = []
 
-    def timed(self, policy: Callable, observation) -> Any:
-        start = time.perf_counter()
-        action = policy(observation)
-        spent = time.perf_counter() - start
-        self.plan_s += spent
-        self.plan_max = max(self.plan_max, spent)
-        return action
+    @property
+    def plan_s(self) -> float:
+        return sum(self.plan.seconds)
+
+    def started(self, env) -> None:
+        """After the reset: the simulator's step count, then the caller's ``on_reset``."""
+        self.sim = env.unwrapped.sim
+        self.start = self.sim.state.step_count
+        if self._on_reset is not None:
+            self._on_reset(env)
+
+    def decide(self, observation) -> Any:
+        """Who holds a component before the step, then the policy's call, timed."""
+        self.held_before = [c != NOBODY for c in self.sim.state.held]
+        return self._policy(observation)
+
+    def busy_cranes(self) -> int:
+        """The cranes that held a component before the step or hold one after it."""
+        held = self.sim.state.held
+        return sum(1 for i, before in enumerate(self.held_before) if before or held[i] != NOBODY)
 
     def count(self, events: Iterable) -> None:
         for e in events:
@@ -137,7 +245,7 @@ class _Tally:
             "plan_seconds": plan_s,
             "plan_ms_per_step": 1000.0 * plan_s / steps if steps else 0.0,
             "plan_ms_per_crane": 1000.0 * plan_s / (steps * n) if steps else 0.0,
-            "plan_ms_max": 1000.0 * self.plan_max,
+            "plan_ms_max": 1000.0 * max(self.plan.seconds, default=0.0),
         }
         if record:
             out["actions"] = self.actions
@@ -145,30 +253,21 @@ class _Tally:
 
 
 def _multi_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]:
-    observations, _ = env.reset(seed=seed)
     base = env.unwrapped
-    sim = base.sim
-    n = sim.n_cranes
     agents = env.possible_agents
     first = agents[0]
-    tally = _Tally(n)
-    if on_reset is not None:
-        on_reset(env)
-    start = sim.state.step_count
-    while env.agents:
-        held_before = [c != NOBODY for c in sim.state.held]
-        actions = tally.timed(policy, observations)
-        observations, rewards, terminations, truncations, infos = env.step(actions)
+    tally = _Tally(base, policy, on_reset)
+
+    def stepped(actions, out) -> None:
+        _, rewards, _, _, infos = out
         reward = float(rewards[first])
         tally.calls += 1
-        tally.steps = sim.state.step_count - start  # simulated steps (task mode: several)
+        tally.steps = tally.sim.state.step_count - tally.start  # simulated steps (task mode)
         tally.total += reward
         if "crane_steps" in infos[first]:
             tally.busy += infos[first]["crane_steps"]
         else:
-            tally.busy += sum(
-                1 for i in range(n) if held_before[i] or sim.state.held[i] != NOBODY
-            )
+            tally.busy += tally.busy_cranes()
         for crane_events in base.last_events:
             tally.count(crane_events)
         if record or on_step is not None:
@@ -177,37 +276,34 @@ def _multi_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]
                 tally.actions.append(joint)
             if on_step is not None:
                 on_step(env, joint, reward, infos)
-        if terminations[first] or truncations[first]:
-            break
+
+    play(env, tally.decide, seed, on_reset=tally.started, after_step=stepped)
+    sim = base.sim
     out = tally.result(base.scenario.name, seed, bool(sim.done), record)
-    if getattr(base, "decisions", "motion") == "task":
+    if base.mode.task_level:
         out["decision_rounds"] = tally.calls
         out["plan_ms_per_step"] = 1000.0 * tally.plan_s / tally.calls if tally.calls else 0.0
     return out
 
 
 def _single_agent(env, policy, seed, record, on_reset, on_step) -> dict[str, Any]:
-    observation, _ = env.reset(seed=seed)
     base = env.unwrapped
-    sim = base.sim
-    tally = _Tally(sim.n_cranes)
-    if on_reset is not None:
-        on_reset(env)
-    while True:
-        held_before = sim.state.held[0] != NOBODY
-        action = tally.timed(policy, observation)
-        observation, reward, terminated, truncated, info = env.step(action)
-        reward = float(reward)
+    tally = _Tally(base, policy, on_reset)
+
+    def stepped(action, out) -> None:
+        reward = float(out[1])
         tally.steps += 1
         tally.total += reward
-        tally.busy += 1 if held_before or sim.state.held[0] != NOBODY else 0
+        tally.busy += tally.busy_cranes()
         tally.count(base.last_events)
+        tally.terminated = bool(out[2])
         if record:
             tally.actions.append(int(action))
         if on_step is not None:
-            on_step(env, action, reward, info)
-        if terminated or truncated:
-            return tally.result(base.scenario.name, seed, bool(terminated), record)
+            on_step(env, action, reward, out[4])
+
+    play(env, tally.decide, seed, on_reset=tally.started, after_step=stepped)
+    return tally.result(base.scenario.name, seed, tally.terminated, record)
 
 
 def evaluate(

@@ -21,10 +21,10 @@ Everything left out is in ``IfcImport.skipped`` with its type, GlobalId, name an
 from __future__ import annotations
 
 import random
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from multicrane.core.codes import Kind
+from multicrane.core.kinds import UNDER_ALL, VERTICAL_BAR, kind_named, kind_spec
 from multicrane.core.schema import (
     Box,
     Cell,
@@ -64,70 +64,24 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
                panels: str = "components", load: bool = True) -> IfcImport:  # fmt: skip
     """The scenario of the IFC model at ``path`` (module docstring). ``load=False`` returns
     the text without loading it (``scenario`` is None)."""
-    if not cell > 0:
-        raise IfcImportError(f"cell size {cell!r}: must be a positive number of metres")
-    if yard not in YARDS:
-        raise IfcImportError(f"yard {yard!r}: must be one of {', '.join(YARDS)}")
-    if panels not in PANEL_MODES:
-        raise IfcImportError(f"panels {panels!r}: must be one of {', '.join(PANEL_MODES)}")
-    if not isinstance(cranes, int) or cranes < 1:
-        raise IfcImportError(f"cranes {cranes!r}: must be an integer >= 1")
+    _check_options(cell, yard, panels, cranes)
     name = Path(path).stem
-    schema, elements, skipped = read_ifc(path, cell)
-    if not any(e.role == "column" for e in elements):
-        found = sum(s.ifc_type == "IfcColumn" for s in skipped)
-        what = f"none of its {found} IfcColumn elements is usable" if found else "no IfcColumn"
-        raise IfcImportError(f"{path}: {schema} model with {what}: a building is imported from "
-                             "its columns (they stand on the foundations)")  # fmt: skip
-    building = snap(elements, cell)
-    skipped = skipped + building.skipped
-    members = [i for i, p in enumerate(building.parts) if p.kind in ("column", "beam")]
+    schema, building, skipped = _read_and_snap(path, cell)
+    members = [i for i, p in enumerate(building.parts) if not kind_named(p.kind).panel]
     if not members:
         raise IfcImportError(f"{path}: no column or beam could be placed on the grid")
-    panel_idx = [i for i, p in enumerate(building.parts) if p.kind in ("slab", "wall")]
-    taken = {c: i for i in members for c in building.parts[i].cells()}
-    obstacles: list[Box] = []
-    obstacle_parts: list[int] = []
-    panel_specs: list[tuple[int, Part]] = []
-    for i in panel_idx:
-        part = building.parts[i]
-        e = part.element
-        if panels == "skip":
-            skipped.append(Skipped(e.ifc_type, e.global_id, e.name, "a panel (--panels skip)"))
-        elif panels == "obstacles":
-            cells = [c for c in part.cells() if c not in taken]
-            taken.update(dict.fromkeys(cells, i))
-            obstacles += _boxes(cells)
-            obstacle_parts.append(i)
-        else:
-            reason = _panel_problem(building, part, taken)
-            if reason is not None:
-                skipped.append(Skipped(e.ifc_type, e.global_id, e.name, reason))
-                continue
-            taken.update(dict.fromkeys(part.cells(), i))
-            panel_specs.append((i, part))
-
-    ids = _ids(building, members + [i for i, _ in panel_specs])
+    use = _sort_panels(building, members, panels, skipped)
+    ids = _ids(building, members + [i for i, _ in use.specs])
     comps, order = _components(building, members, ids)
-    top = max(c.target[1][2] for c in comps)
-    top = max([top] + [p.hi[2] for _, p in panel_specs] + [b.hi[2] for b in obstacles])
-    height = top + max(c.length for c in comps if c.kind is Kind.COLUMN)
-    if height > MAX_HEIGHT:
-        raise IfcImportError(f"{path}: the site would be {height} cells high at cell {cell} m "
-                             f"(at most {MAX_HEIGHT}): choose a larger --cell")  # fmt: skip
-    kept = [building.parts[i] for i in members + obstacle_parts + [i for i, _ in panel_specs]]
-    width = max(p.hi[0] for p in kept) + 1  # the plan extent of what is imported
-    depth = max(p.hi[1] for p in kept) + 1
-    params = {"bays_x": width - 1, "bays_y": depth - 1, "span": 1, "storeys": 1,
-              "column_height": height - 1, "yard": yard, "random_start": False,
-              "obstacles": 0}  # fmt: skip
-    site = generator_yard.lay_out(comps, params, random.Random(0))
-    size = (site.size[0], site.size[1], height)
+    height = _height(path, cell, comps, use)
+    kept = [building.parts[i] for i in members + use.obstacle_parts + [i for i, _ in use.specs]]
+    site = _lay_out(kept, comps, height, yard)
     ox, oy = site.offset
     comps = [replace(c, target=_shift(c.target, ox, oy), initial=site.starts[k])
              for k, c in enumerate(comps)]  # fmt: skip
-    obstacles = [Box(_move(b.lo, ox, oy), _move(b.hi, ox, oy)) for b in obstacles]
-    placed_panels, size = _panel_yard(building, panel_specs, ids, ox, oy, size)
+    obstacles = [Box(_move(b.lo, ox, oy), _move(b.hi, ox, oy)) for b in use.obstacles]
+    size = (site.size[0], site.size[1], height)
+    placed_panels, size = _panel_yard(building, use.specs, ids, ox, oy, size)
     if size[0] * size[1] * size[2] > MAX_SITE_CELLS:
         raise IfcImportError(f"{path}: the site would have {size[0] * size[1] * size[2]} cells "
                              f"({size[0]} x {size[1]} x {size[2]}) at cell {cell} m; at most "
@@ -146,14 +100,93 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
                          placed_panels, site.offset)  # fmt: skip
     g = building.grid
     grid = Grid(g.cell, (g.origin[0] - ox * g.cell, g.origin[1] - oy * g.cell, g.origin[2]))
-    result = IfcImport(text, None, building, ids, skipped, schema, obstacle_parts, grid)
+    result = IfcImport(text, None, building, ids, skipped, schema, use.obstacle_parts, grid)
     if load:
         try:
             result.scenario = parse_scenario(text, source=f"{path} (imported)", default_name=name)
         except ScenarioError as exc:
-            hint = " (try --panels skip)" if obstacle_parts else ""
+            hint = " (try --panels skip)" if use.obstacle_parts else ""
             raise IfcImportError(f"the imported site does not load: {exc}{hint}") from None
     return result
+
+
+def _check_options(cell: float, yard: str, panels: str, cranes: int) -> None:
+    if not cell > 0:
+        raise IfcImportError(f"cell size {cell!r}: must be a positive number of metres")
+    if yard not in YARDS:
+        raise IfcImportError(f"yard {yard!r}: must be one of {', '.join(YARDS)}")
+    if panels not in PANEL_MODES:
+        raise IfcImportError(f"panels {panels!r}: must be one of {', '.join(PANEL_MODES)}")
+    if not isinstance(cranes, int) or cranes < 1:
+        raise IfcImportError(f"cranes {cranes!r}: must be an integer >= 1")
+
+
+def _read_and_snap(path: str | Path, cell: float) -> tuple[str, Building, list[Skipped]]:
+    """The model's schema, its building on the grid, and every element left out so far."""
+    schema, elements, skipped = read_ifc(path, cell)
+    if not any(e.role == "column" for e in elements):
+        found = sum(s.ifc_type == "IfcColumn" for s in skipped)
+        what = f"none of its {found} IfcColumn elements is usable" if found else "no IfcColumn"
+        raise IfcImportError(f"{path}: {schema} model with {what}: a building is imported from "
+                             "its columns (they stand on the foundations)")  # fmt: skip
+    building = snap(elements, cell)
+    return schema, building, skipped + building.skipped
+
+
+@dataclass
+class _Panels:
+    """What the panels became (``panels`` mode): obstacle boxes or panel components."""
+
+    obstacles: list[Box] = field(default_factory=list)
+    obstacle_parts: list[int] = field(default_factory=list)  # parts that became obstacles
+    specs: list[tuple[int, Part]] = field(default_factory=list)  # (part index, panel component)
+
+
+def _sort_panels(b: Building, members: list[int], panels: str, skipped: list[Skipped]) -> _Panels:
+    """Each panel part as ``panels`` says: skipped (added to ``skipped``), obstacle cells
+    (less those of columns and beams) or a component (skipped with the reason if it cannot)."""
+    use = _Panels()
+    taken = {c: i for i in members for c in b.parts[i].cells()}
+    for i in [i for i, p in enumerate(b.parts) if kind_named(p.kind).panel]:
+        part = b.parts[i]
+        e = part.element
+        if panels == "skip":
+            skipped.append(Skipped(e.ifc_type, e.global_id, e.name, "a panel (--panels skip)"))
+        elif panels == "obstacles":
+            cells = [c for c in part.cells() if c not in taken]
+            taken.update(dict.fromkeys(cells, i))
+            use.obstacles += _boxes(cells)
+            use.obstacle_parts.append(i)
+        else:
+            reason = _panel_problem(b, part, taken)
+            if reason is not None:
+                skipped.append(Skipped(e.ifc_type, e.global_id, e.name, reason))
+                continue
+            taken.update(dict.fromkeys(part.cells(), i))
+            use.specs.append((i, part))
+    return use
+
+
+def _height(path: str | Path, cell: float, comps: list[ComponentSpec], use: _Panels) -> int:
+    """The site's height: the building's top plus its longest column (refused over
+    ``MAX_HEIGHT``)."""
+    top = max(c.target[1][2] for c in comps)
+    top = max([top] + [p.hi[2] for _, p in use.specs] + [b.hi[2] for b in use.obstacles])
+    height = top + max(c.length for c in comps if kind_spec(c.kind).shape == VERTICAL_BAR)
+    if height > MAX_HEIGHT:
+        raise IfcImportError(f"{path}: the site would be {height} cells high at cell {cell} m "
+                             f"(at most {MAX_HEIGHT}): choose a larger --cell")  # fmt: skip
+    return height
+
+
+def _lay_out(kept: list[Part], comps: list[ComponentSpec], height: int, yard: str):
+    """The generator's yard around the plan extent of what is imported."""
+    width = max(p.hi[0] for p in kept) + 1  # the plan extent of what is imported
+    depth = max(p.hi[1] for p in kept) + 1
+    params = {"bays_x": width - 1, "bays_y": depth - 1, "span": 1, "storeys": 1,
+              "column_height": height - 1, "yard": yard, "random_start": False,
+              "obstacles": 0}  # fmt: skip
+    return generator_yard.lay_out(comps, params, random.Random(0))
 
 
 def _foundations(b: Building, panels: list[PanelSpec], ox: int, oy: int):
@@ -161,7 +194,7 @@ def _foundations(b: Building, panels: list[PanelSpec], ox: int, oy: int):
     cells = [(x + ox, y + oy) for x, y in b.foundations]
     for p in panels:
         (x0, y0, z0), (x1, y1, z1) = p.target
-        if p.kind == "wall" and min(z0, z1) == 1:
+        if kind_named(p.kind).supports == UNDER_ALL and min(z0, z1) == 1:
             cells += [(x, y) for x in range(min(x0, x1), max(x0, x1) + 1)
                       for y in range(min(y0, y1), max(y0, y1) + 1)]  # fmt: skip
     return tuple(dict.fromkeys(cells))
@@ -201,7 +234,7 @@ def _components(b: Building, members: list[int], ids: dict[int, str]):
     comps = []
     for i in members:
         p = b.parts[i]
-        kind = Kind.COLUMN if p.kind == "column" else Kind.BEAM
+        kind = kind_named(p.kind).code
         length = max(abs(h - lo) for lo, h in zip(p.lo, p.hi, strict=True)) + 1
         comps.append(ComponentSpec(ids[i], kind, length, None, (p.lo, p.hi),
                                    tuple(index[j] for j in p.supports), False, ()))  # fmt: skip

@@ -4,4 +4,6 @@
 ``multicrane.integrations.benchmarl``: BenchMARL tasks (``pip install "multicrane[benchmarl]"``,
 in a venv of its own: it conflicts with the ``torchrl`` extra).
 Importing this package imports nothing heavy.
+
+May import: every room below it (``core`` to ``reports``) and the public face.
 """

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from multicrane.core.codes import PANELS, Status
+from multicrane.core.kinds import FRAME_COLORS, KINDS, PANEL_COLORS
 
 if TYPE_CHECKING:
     from multicrane.core.schema import Scenario
@@ -18,27 +18,11 @@ if TYPE_CHECKING:
 APPLICATION_ID = "multicrane"
 TIMELINE = "step"
 
-# Colours by component state (RGBA), as in the paper's figures.
-STATE_COLORS = np.array(
-    [
-        [255, 153, 0, 255],  # initial: orange
-        [40, 110, 255, 255],  # in transit: blue
-        [50, 190, 70, 255],  # arrived: green
-        [240, 110, 180, 255],  # assembled: pink
-    ],
-    dtype=np.uint8,
-)
-# Panels (slabs, walls) get their own colour per state, so they stand out from the frame.
-PANEL_STATE_COLORS = np.array(
-    [
-        [190, 120, 60, 255],  # initial: brown
-        [0, 175, 200, 255],  # in transit: cyan
-        [150, 205, 50, 255],  # arrived: lime
-        [160, 90, 210, 255],  # assembled: violet
-    ],
-    dtype=np.uint8,
-)
-assert len(STATE_COLORS) == len(PANEL_STATE_COLORS) == len(Status)
+# Colours by component state (RGBA, rows by ``Status``), as in the paper's figures; panels
+# (slabs, walls) get their own, so they stand out from the frame. Each kind's colours are its
+# entry's ``colors`` in ``multicrane.core.kinds``.
+STATE_COLORS = np.array(FRAME_COLORS, dtype=np.uint8)
+PANEL_STATE_COLORS = np.array(PANEL_COLORS, dtype=np.uint8)
 
 
 def import_rerun():
@@ -54,12 +38,16 @@ def import_rerun():
 
 def pack_colors(status: np.ndarray, kinds=None) -> np.ndarray:
     """Component states -> packed ``0xRRGGBBAA`` colours (uint32), any shape; ``kinds`` (the
-    components' ``Kind`` codes, broadcast against ``status``) gives panels their own colours."""
+    components' kind codes, broadcast against ``status``) colours each by its kind's entry
+    (panels differ from the frame); without it every component has the frame's colours."""
     status = np.asarray(status, dtype=np.intp)
-    rgba = STATE_COLORS[status].astype(np.uint32)
-    if kinds is not None:
-        panel = np.broadcast_to(np.isin(np.asarray(kinds), [int(k) for k in PANELS]), status.shape)
-        rgba[panel] = PANEL_STATE_COLORS[status[panel]]
+    if kinds is None:
+        rgba = STATE_COLORS[status].astype(np.uint32)
+    else:
+        palette = np.zeros((max(KINDS) + 1, len(STATE_COLORS), 4), dtype=np.uint32)
+        for code, spec in KINDS.items():
+            palette[code] = spec.colors
+        rgba = palette[np.broadcast_to(np.asarray(kinds, dtype=np.intp), status.shape), status]
     return (rgba[..., 0] << 24) | (rgba[..., 1] << 16) | (rgba[..., 2] << 8) | rgba[..., 3]
 
 

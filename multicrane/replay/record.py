@@ -252,8 +252,8 @@ def record_episode(
             listener.on_step(env, joint, reward, events)
 
     m = run_episode(env, policy, int(seed), on_reset=on_reset, on_step=on_step)
-    task_mode = getattr(env, "task_mode", None)
-    if task_mode is not None:  # keep the physical steps: they re-simulate in motion mode
+    task_mode = env.mode
+    if task_mode.task_level:  # keep the physical steps: they re-simulate in motion mode
         rec.decisions = rec.actions
         rec.actions = [list(joint) for joint in task_mode.trace]
         rec.events = [

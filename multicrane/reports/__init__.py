@@ -3,5 +3,9 @@
 - ``provenance``: how and where a page was made (command line, machine).
 - ``paper_table``: reference returns of the 16 paper configurations beside Table I.
 - ``planners``: classical multi-crane planners on the shipped scenarios; ``planners_tables``
-  formats them and ``planners_page`` writes the markdown page with its observations.
+  makes their tables' rows, ``planners_notes`` the observations and ``planners_page`` the
+  markdown page.
+
+May import: every room below it (``core`` to ``benchmark``) and the public face
+(``multicrane``).
 """

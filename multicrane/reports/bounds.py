@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
+import multicrane.tables as tables
 from multicrane.bounds.makespan import BoundResult, lower_bound
 from multicrane.core.schema import Scenario
 
@@ -104,20 +105,10 @@ def _head(rows: list[Row]) -> tuple[list[str], bool]:
 def text_table(rows: list[Row]) -> str:
     """The rows as aligned text columns."""
     head, with_policy = _head(rows)
-    table = [head] + [_cells(r, with_policy) for r in rows]
-    widths = [max(len(line[i]) for line in table) for i in range(len(head))]
-    return "\n".join(
-        "  ".join(
-            c.ljust(w) if i == 0 else c.rjust(w)
-            for i, (c, w) in enumerate(zip(line, widths, strict=True))
-        )
-        for line in table
-    )
+    return tables.text_table(head, [_cells(r, with_policy) for r in rows])
 
 
 def markdown_table(rows: list[Row]) -> str:
     """The rows as a markdown table."""
     head, with_policy = _head(rows)
-    lines = ["| " + " | ".join(head) + " |", "|---" + "|---:" * (len(head) - 1) + "|"]
-    lines += ["| " + " | ".join(_cells(r, with_policy)) + " |" for r in rows]
-    return "\n".join(lines)
+    return "\n".join(tables.markdown_table(head, [_cells(r, with_policy) for r in rows]))

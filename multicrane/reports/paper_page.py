@@ -1,6 +1,8 @@
 """The markdown page of the paper's reference returns: provenance, table and observations.
 
-``multicrane paper-table --markdown`` writes it (``docs/paper-results.md``).
+``multicrane paper-table --markdown`` writes it (``docs/paper-results.md``). The page is built
+from tables: its prose (the caveat, what each column holds) is the data below, its table the
+rows of ``paper_table.cells`` laid out by ``multicrane.tables``.
 """
 
 from __future__ import annotations
@@ -8,18 +10,22 @@ from __future__ import annotations
 import datetime
 
 from multicrane.benchmark.reference import ALGORITHMS, SIGN_FIXED, TABLE_I
-from multicrane.reports.paper_table import SAME, Row, cells, seed_range, timing
+from multicrane.reports.paper_table import POLICIES, SAME, Row, cells, seed_range, timing
 from multicrane.reports.provenance import machine
+from multicrane.tables import markdown_table
 
 
 def observations(rows: list[Row]) -> list[str]:
     """Statements read off the numbers (each only about the configurations that were run)."""
-    notes = []
     by_env: dict[str, list[Row]] = {}
-    by_config = {r.config: r for r in rows}
     for r in rows:
         by_env.setdefault(r.config[:2], []).append(r)
+    return [gap_note(rows, by_env), optimal_note(rows), greedy_note(rows),
+            random_note(rows, by_env)]  # fmt: skip
 
+
+def gap_note(rows: list[Row], by_env: dict[str, list[Row]]) -> str:
+    """How far the best Table I entry lies below our optimum, per environment."""
     gaps = []
     for env, rs in by_env.items():
         lo, hi = min(-r.gap for r in rs), max(-r.gap for r in rs)
@@ -36,12 +42,15 @@ def observations(rows: list[Row]) -> list[str]:
     if len(worst) > 1 and list(worst.values()) == sorted(worst.values()):
         envs = list(worst)
         text += f" The largest gap per environment grows from Env{envs[0][1]} to Env{envs[-1][1]}."
-    text += (
+    return text + (
         " Part of each gap may come from the environment rather than the agent (Table I's "
         "episodes could be cut short or be impossible to finish; see `paper-differences.md`)."
     )
-    notes.append(text)
 
+
+def optimal_note(rows: list[Row]) -> str:
+    """The episodes the exact planner finishes, fixed starts, and S4 beside S2."""
+    by_config = {r.config: r for r in rows}
     n_episodes = sum(len(r.optimal.returns) for r in rows)
     n_finished = sum(round(r.optimal.success * len(r.optimal.returns)) for r in rows)
     text = f"**Optimal.** The planner finishes {n_finished} of the {n_episodes} episodes" + (
@@ -69,8 +78,11 @@ def observations(rows: list[Row]) -> list[str]:
             "the obstacles do not lengthen the optimal paths (measured in "
             "`paper-differences.md`, item 2)."
         )
-    notes.append(text)
+    return text
 
+
+def greedy_note(rows: list[Row]) -> str:
+    """Where greedy gets the optimal return in every episode, and where it falls short."""
     every = [r.config for r in rows if r.greedy_optimal_episodes == len(r.greedy.returns)]
     some = [r for r in rows if r.config not in every]
     text = "**Greedy vs. optimal.** "
@@ -93,9 +105,13 @@ def observations(rows: list[Row]) -> list[str]:
                 "target), and all its shortfalls are in configurations with interchangeable "
                 "targets, where the nearest target is not always the best choice."
             )
-    notes.append(text.strip())
+    return text.strip()
 
+
+def random_note(rows: list[Row], by_env: dict[str, list[Row]]) -> str:
+    """Where uniform random actions finish an episode, and Table I entries at or below them."""
     if all(r.random.success == 0 for r in rows):
+        n_episodes = sum(len(r.optimal.returns) for r in rows)
         text = (
             f"**Random.** Uniform random actions finish none of the {n_episodes} episodes, in "
             "any configuration; every random episode runs to the step limit."
@@ -113,30 +129,59 @@ def observations(rows: list[Row]) -> list[str]:
         if m <= r.random.mean
     ]
     if under:
-        text += " Table I entries at or below our random mean: " + "; ".join(under) + "."
-    else:
-        text += " Every Table I entry is above our random mean."
-    notes.append(text)
-    return notes
+        return text + " Table I entries at or below our random mean: " + "; ".join(under) + "."
+    return text + " Every Table I entry is above our random mean."
+
+
+TITLE = "# Reference returns for the paper's 16 configurations"
+
+INTRO = (
+    "What an exact planner, a greedy planner and uniform random actions achieve in each "
+    "configuration of the paper's single-agent benchmark (`multicrane.PaperAssemblyEnv`, "
+    "E1S1 .. E4S4), beside the best entry of the paper's Table I."
+)
+
+CAVEAT = (
+    "**These returns come from the corrected environment** (see "
+    "[paper-spec.md](paper-spec.md) and [paper-differences.md](paper-differences.md)). Table I "
+    "was produced by the paper's public code, whose episodes could be cut short, whose "
+    "obstacles blocked nothing and whose E4S1/E4S3 episodes were mostly impossible to "
+    "finish, so its numbers are not directly comparable with ours: the gap column says "
+    "how far an entry lies below the best return achievable in our environment, not how "
+    "good the paper's agents were in theirs."
+)
+
+COLUMNS = (  # what the columns hold, one list item each
+    "*optimal return*: `multicrane.bounds.paper_optimum.plan`, the exact best return of "
+    "each episode, "
+    "mean ± standard error over episodes; *optimal success*: share of episodes it "
+    "finishes; *optimal steps*: mean length of the optimal episodes.",
+    "*greedy*: `policies.paper_greedy.PaperGreedyPolicy` (the current component takes "
+    "a shortest path to the nearest free target it can fill): return mean ± s.e., "
+    "success rate, mean steps.",
+    "*random*: uniform over the six actions (no mask), from its own generator seeded "
+    "per episode with (seed, 1): return mean ± s.e., success rate, mean steps (episodes "
+    "that do not finish run to the step limit: 100, 300, 600 for Env1/2, Env3, Env4).",
+    "*Table I best (algorithm)*: the best of the paper's four entries (mean ± s.e. over "
+    '15 training seeds) and which algorithm got it; the paper\'s "DQN" was a double DQN '
+    'and its "DDQN" a dueling double DQN.',
+    "*gap to optimum*: Table I best minus our mean optimal return (negative: below the "
+    "optimum).",
+)
+
+HEAD = [
+    "config",
+    *(f"{policy} {what}" for policy in POLICIES for what in ("return", "success", "steps")),
+    "Table I best (algorithm)",
+    "gap to optimum",
+]
+ALIGN = "l" + "r" * 9 + "l"  # the Table I entry left-aligned, the gap right
 
 
 def markdown_page(rows: list[Row], seeds: range, wall: float, command: str) -> str:
     """The whole page."""
-    out = [
-        "# Reference returns for the paper's 16 configurations",
-        "",
-        "What an exact planner, a greedy planner and uniform random actions achieve in each "
-        "configuration of the paper's single-agent benchmark (`multicrane.PaperAssemblyEnv`, "
-        "E1S1 .. E4S4), beside the best entry of the paper's Table I.",
-        "",
-        "**These returns come from the corrected environment** (see "
-        "[paper-spec.md](paper-spec.md) and [paper-differences.md](paper-differences.md)). Table I "
-        "was produced by the paper's public code, whose episodes could be cut short, whose "
-        "obstacles blocked nothing and whose E4S1/E4S3 episodes were mostly impossible to "
-        "finish, so its numbers are not directly comparable with ours: the gap column says "
-        "how far an entry lies below the best return achievable in our environment, not how "
-        "good the paper's agents were in theirs.",
-        "",
+    out = [TITLE, "", INTRO, "", CAVEAT, ""]
+    out += [
         f"- Command: `{command}`.",
         f"- Date: {datetime.date.today().isoformat()}.",
         f"- Machine: {machine()}.",
@@ -144,30 +189,9 @@ def markdown_page(rows: list[Row], seeds: range, wall: float, command: str) -> s
         "`reset(seed=...)`); the same seeds for all three policies.",
         f"- {timing(rows, wall)}",
         "",
-        "Columns:",
-        "",
-        "- *optimal return*: `multicrane.bounds.paper_optimum.plan`, the exact best return of "
-        "each episode, "
-        "mean ± standard error over episodes; *optimal success*: share of episodes it "
-        "finishes; *optimal steps*: mean length of the optimal episodes.",
-        "- *greedy*: `policies.paper_greedy.PaperGreedyPolicy` (the current component takes "
-        "a shortest path to the nearest free target it can fill): return mean ± s.e., "
-        "success rate, mean steps.",
-        "- *random*: uniform over the six actions (no mask), from its own generator seeded "
-        "per episode with (seed, 1): return mean ± s.e., success rate, mean steps (episodes "
-        "that do not finish run to the step limit: 100, 300, 600 for Env1/2, Env3, Env4).",
-        "- *Table I best (algorithm)*: the best of the paper's four entries (mean ± s.e. over "
-        '15 training seeds) and which algorithm got it; the paper\'s "DQN" was a double DQN '
-        'and its "DDQN" a dueling double DQN.',
-        "- *gap to optimum*: Table I best minus our mean optimal return (negative: below the "
-        "optimum).",
-        "",
-        "| config | optimal return | optimal success | optimal steps | greedy return "
-        "| greedy success | greedy steps | random return | random success | random steps "
-        "| Table I best (algorithm) | gap to optimum |",
-        "|---|" + "---:|" * 9 + "---|---:|",
     ]
-    out += ["| " + " | ".join(cells(r)) + " |" for r in rows]
+    out += ["Columns:", "", *(f"- {text}" for text in COLUMNS), ""]
+    out += markdown_table(HEAD, [cells(r) for r in rows], ALIGN)
     out.append("")
     if any(r.config in SIGN_FIXED for r in rows):
         out += ['\\* printed as "140.18" in the paper; the minus sign was lost.', ""]

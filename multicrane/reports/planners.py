@@ -2,12 +2,12 @@
 
 The policies come in as arguments (``make_policy(env, seed)`` by name); nothing here knows a
 planner. Each (scenario, crane count, policy) plays the episodes ``reset(seed=first + i)``
-starts in ``MultiCraneEnv``'s default (claiming) mode, through ``multicrane.episodes.rollout``. For
-the
-paper's configurations (e?s?) with one crane, an exact single-agent planner (paper mode,
-automatic claiming and assembly) gives the optimum on the same layouts; its step count is
-converted to the claiming mode's (``comparable``: steps - pass-over steps + 2 per component,
-since a claim step lifts a component and an assemble step ends it).
+starts in ``MultiCraneEnv``'s default (claiming) mode, through ``multicrane.episodes.rollout``
+(the task-mode cost too: ``play``, timed per episode, reset included). For the paper's
+configurations (e?s?) with one crane, an exact single-agent planner (paper mode, automatic
+claiming and assembly) gives the optimum on the same layouts; its step count is converted to
+the claiming mode's (``comparable``: steps - pass-over steps + 2 per component, since a claim
+step lifts a component and an assemble step ends it).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from multicrane.core.schema import Scenario
-from multicrane.episodes.rollout import evaluate, run_episode
+from multicrane.episodes.rollout import evaluate, play, run_episode
 from multicrane.scenario.loader import load_scenario
 from multicrane.sim.reach import crane_count_problem
 
@@ -189,10 +189,7 @@ def run_task_cost(name: str, n: int, make_policy: MakePolicy, motion: Cell) -> T
     for r in motion.results:
         policy = make_policy(env, r["seed"])
         start = time.perf_counter()
-        observations, _ = env.reset(seed=r["seed"])
-        while env.agents:
-            observations, *_ = env.step(policy(observations))
-            rounds += 1
+        rounds += play(env, policy, r["seed"])
         seconds += time.perf_counter() - start
         spans.append(env.sim.state.step_count if env.sim.done else None)
     same = spans == [r["makespan"] for r in motion.results]

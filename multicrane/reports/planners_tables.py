@@ -1,4 +1,7 @@
-"""The tables of the planner comparison (``multicrane.reports.planners``), as text or markdown."""
+"""The tables of the planner comparison (``multicrane.reports.planners``): headers and rows.
+
+``multicrane.tables`` lays them out as markdown or plain text.
+"""
 
 from __future__ import annotations
 
@@ -137,6 +140,12 @@ def speedup_rows(res: Results) -> list[list[str]]:
     return rows
 
 
+def speedup_head(res: Results) -> list[str]:
+    """The header of ``speedup_rows``: a column per crane count, then the utilisation."""
+    counts = [f"{n} crane{'s' if n > 1 else ''}" for n in res.setup.cranes]
+    return ["scenario", "planner", *counts, "utilisation"]
+
+
 def timing_rows(res: Results) -> list[list[str]]:
     """Planning time per decision of the planners (large scenarios)."""
     rows = []
@@ -160,21 +169,6 @@ def timing_rows(res: Results) -> list[list[str]]:
                     ]
                 )
     return rows
-
-
-def text(head: list[str], rows: list[list[str]]) -> str:
-    """A right-aligned plain-text table."""
-    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(head)] if rows else []
-    lines = ["  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True))]
-    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
-    return "\n".join(lines)
-
-
-def markdown(head: list[str], rows: list[list[str]], left: int = 1) -> list[str]:
-    """A markdown table (the first ``left`` columns left-aligned), as lines."""
-    out = ["| " + " | ".join(head) + " |", "|" + "---|" * left + "---:|" * (len(head) - left)]
-    out += ["| " + " | ".join(r) + " |" for r in rows]
-    return out
 
 
 def _values(values: list) -> str:

@@ -7,8 +7,10 @@ targets), writes it to a TOML file and times, with ``time.perf_counter``:
 - ``load_s``: ``load_scenario`` of that file (the strict loader, solvability included);
 - ``reset_s``: the fastest of three ``env.reset(seed=...)`` of ``parallel_env`` with the
   given number of cranes (construction excluded);
-- ``step_ms`` and ``step_ms_per_crane``: the mean joint step under random legal actions
-  (drawn from the action masks, as a masked policy would), and that divided by the cranes;
+- ``step_ms`` and ``step_ms_per_crane``: the mean ``env.step`` time of a joint step under
+  random legal actions (drawn from the action masks, as a masked policy would, by
+  ``multicrane.episodes.random_actions``; the draws are not timed), and that divided by the
+  cranes;
 - ``plan_ms`` and ``plan_ms_max``: the mean and slowest call of ``planner(env, seed)`` (a
   policy handed in by the caller: this module never imports ``policies``) over the first
   ``decisions`` decisions of the episode from ``reset(seed=0)``.
@@ -28,6 +30,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from multicrane.episodes.random_actions import random_legal_policy
+from multicrane.episodes.rollout import Stopwatch, play
 
 # components -> (bays_x, bays_y, storeys) of a hall with span 4 and columns 4 cells high.
 SHAPES: dict[int, tuple[int, int, int]] = {
@@ -101,33 +106,19 @@ def measure(
 
 
 def _step_seconds(env, steps: int) -> float:
-    """Mean seconds per joint step under random legal actions (resets not counted)."""
-    rng = np.random.default_rng(0)
-    obs, _ = env.reset(seed=0)
-    agents = env.possible_agents
-    spent = 0.0
-    for _ in range(steps):
-        masks = np.stack([obs[a]["action_mask"] for a in agents])
-        choice = (rng.random(masks.shape) * masks).argmax(axis=1).tolist()
-        t = time.perf_counter()
-        obs, *_ = env.step(dict(zip(agents, choice, strict=True)))
-        spent += time.perf_counter() - t
-        if not env.agents:
-            obs, _ = env.reset()
-    return spent / steps
+    """Mean seconds of ``env.step`` alone over ``steps`` joint steps of random legal actions
+    from ``reset(seed=0)`` (neither the draws nor the resets counted)."""
+    watch = Stopwatch()
+    policy = random_legal_policy(env.possible_agents, np.random.default_rng(0))
+    play(env, policy, 0, steps=steps, repeat=True, step_watch=watch)
+    return sum(watch.seconds) / steps
 
 
 def _planner_seconds(env, planner: Callable, decisions: int) -> list[float]:
     """Seconds of each planner call over the first ``decisions`` of one episode (seed 0)."""
-    obs, _ = env.reset(seed=0)
-    policy = planner(env, 0)
-    calls: list[float] = []
-    while env.agents and len(calls) < decisions:
-        t = time.perf_counter()
-        actions = policy(obs)
-        calls.append(time.perf_counter() - t)
-        obs, *_ = env.step(actions)
-    return calls
+    watch = Stopwatch()
+    play(env, watch.timing(planner(env, 0)), 0, steps=decisions)
+    return watch.seconds
 
 
 def grid(full: bool) -> list[tuple[int, int]]:

@@ -19,6 +19,7 @@ import statistics
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+import multicrane.tables as tables
 from multicrane.stats import ci95
 
 _SEED_SUFFIX = re.compile(r"^(?P<prefix>.+)-s(?P<seed>\d+)$")
@@ -142,27 +143,29 @@ def markdown_table(
             f"shorter than {baseline}"]  # fmt: skip
     if bound is not None:
         head.append(f"gap to bound ({bound:.1f})")
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-    for e in entries_:
-        mean, ci = e.mean, e.ci
-        cells = [
-            e.name
-            + (f" ({len(e.seeds)} seed{'s' if len(e.seeds) > 1 else ''})" if e.learned else ""),
-            "-" if mean is None else f"{mean:.1f}" + (f" [{ci[0]:.1f}, {ci[1]:.1f}]" if ci else ""),
-            f"{e.finished}/{e.episodes}",
-            f"{e.seeds_all_finished}/{len(e.seeds)}" if e.learned else "",
-            ", ".join("-" if m is None else f"{m:.1f}" for m in e.per_seed) if e.learned else "",
-        ]
-        ratio = ""
-        if base is not None and base.mean is not None and mean is not None:
-            ratio = f"{mean / base.mean:.3f} ({episode_ratio(e, base):.3f})"
-        cells.append(ratio)
-        if e.learned and base is not None:
-            s, q, n = shorter_share(e, base)
-            cells.append(f"{s}/{n}" + (f" ({q} equal)" if q else ""))
-        else:
-            cells.append("")
-        if bound is not None:
-            cells.append("" if mean is None else f"{100 * (mean - bound) / bound:+.1f} %")
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    rows = [entry_cells(e, base, bound) for e in entries_]
+    return "\n".join(tables.markdown_table(head, rows, align="l" * len(head)))
+
+
+def entry_cells(e: Entry, base: Entry | None, bound: float | None) -> list[str]:
+    """One entry's row of ``markdown_table`` (``base``: the baseline entry, if it was run)."""
+    mean, ci = e.mean, e.ci
+    cells = [
+        e.name + (f" ({len(e.seeds)} seed{'s' if len(e.seeds) > 1 else ''})" if e.learned else ""),
+        "-" if mean is None else f"{mean:.1f}" + (f" [{ci[0]:.1f}, {ci[1]:.1f}]" if ci else ""),
+        f"{e.finished}/{e.episodes}",
+        f"{e.seeds_all_finished}/{len(e.seeds)}" if e.learned else "",
+        ", ".join("-" if m is None else f"{m:.1f}" for m in e.per_seed) if e.learned else "",
+    ]
+    ratio = ""
+    if base is not None and base.mean is not None and mean is not None:
+        ratio = f"{mean / base.mean:.3f} ({episode_ratio(e, base):.3f})"
+    cells.append(ratio)
+    if e.learned and base is not None:
+        s, q, n = shorter_share(e, base)
+        cells.append(f"{s}/{n}" + (f" ({q} equal)" if q else ""))
+    else:
+        cells.append("")
+    if bound is not None:
+        cells.append("" if mean is None else f"{100 * (mean - bound) / bound:+.1f} %")
+    return cells

@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 
+import multicrane.tables as tables
 from multicrane.stats import ci95
 
 LEVELS = ("none", "low", "high")
@@ -163,10 +164,10 @@ def markdown_table(cells: list[Cell], bounds: list[Bound]) -> str:
     head = ["scenario", "cranes", "events", *names]
     if bounds:
         head.append("bound (undisturbed)")
-    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     rows: dict[tuple, dict[str, Cell]] = {}
     for c in cells:
         rows.setdefault((c.scenario, c.n_cranes, c.level), {})[c.policy] = c
+    table_rows = []
     for (scenario, n, level), by in rows.items():
         out = [scenario, str(n), level]
         for name in names:
@@ -175,8 +176,8 @@ def markdown_table(cells: list[Cell], bounds: list[Bound]) -> str:
         if bounds:
             b = bound_of.get((scenario, n))
             out.append("" if b is None else f"{b.mean:.1f}")
-        lines.append("| " + " | ".join(out) + " |")
-    return "\n".join(lines)
+        table_rows.append(out)
+    return "\n".join(tables.markdown_table(head, table_rows, align="l" * len(head)))
 
 
 __all__ = ["LEVELS", "Bound", "Cell", "episode_seeds", "markdown_table", "run_benchmark",

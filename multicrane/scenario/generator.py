@@ -30,7 +30,8 @@ import random
 from dataclasses import replace
 from typing import Any
 
-from multicrane.core.codes import PANELS, Kind
+from multicrane.core.codes import Kind
+from multicrane.core.kinds import kind_spec
 from multicrane.core.schema import (
     Box,
     ComponentSpec,
@@ -156,11 +157,12 @@ def generate(family: str, seed: int, **params: Any) -> Scenario:
     rng = random.Random(f"{family}:{seed}:layout")
     name = f"{family}-s{seed}"
     comps, order, foundations = _building(p, slabs=family in PANEL_FAMILIES)
-    straight = [i for i, c in enumerate(comps) if c.kind not in PANELS]
+    panel = [kind_spec(c.kind).panel for c in comps]
+    straight = [i for i in range(len(comps)) if not panel[i]]
     site = yard.lay_out([comps[i] for i in straight], p, rng)
     site.starts = {straight[k]: pose for k, pose in site.starts.items()}
     site = yard.add_panel_strip(
-        site, {i: geometry.extent(*c.target)[:2] for i, c in enumerate(comps) if c.kind in PANELS}
+        site, {i: geometry.extent(*c.target)[:2] for i, c in enumerate(comps) if panel[i]}
     )
     comps = [replace(c, target=_shift(c.target, site.offset)) for c in comps]
     foundations = [(x + site.offset[0], y + site.offset[1]) for x, y in foundations]

@@ -20,7 +20,7 @@ import random
 from dataclasses import dataclass, field
 from typing import Any
 
-from multicrane.core.codes import Kind
+from multicrane.core.kinds import kind_spec
 from multicrane.core.schema import Band, Box, ComponentSpec, Pose, RandomStart
 
 
@@ -42,7 +42,8 @@ def lay_out(comps: list[ComponentSpec], p: dict[str, Any], rng: random.Random) -
     depth = p["bays_y"] * p["span"] + 1
     height = (p["storeys"] + 1) * p["column_height"]
     lengths = [c.length for c in comps]
-    margin = max([c.length // 2 for c in comps if c.kind == Kind.BEAM] + [1]) + 1
+    turned = [c.length // 2 for c in comps if kind_spec(c.kind).lifted_about_centre]
+    margin = max(turned + [1]) + 1
     longest = max(lengths)
     sides = {"one": 1, "two": 2, "around": 4}[p["yard"]]
     lanes = 1

@@ -12,25 +12,23 @@ import math
 import tomllib
 from pathlib import Path
 
-from multicrane.core.codes import PANELS, Kind
 from multicrane.core.schema import (
     Band,
     Box,
-    ComponentSpec,
     CraneSpec,
-    Pose,
     RandomStart,
     RewardSpec,
     Scenario,
     ScenarioError,
 )
-from multicrane.scenario import limits, panels
+from multicrane.scenario import limits
 from multicrane.scenario.catalog import resolve
 from multicrane.scenario.checks import check_reach, check_scenario
+from multicrane.scenario.components_table import in_site, outside, read_component, read_ids
 from multicrane.scenario.events_table import parse_events
 from multicrane.scenario.solvable import check_solvable
+from multicrane.scenario.supports import derive_supports
 from multicrane.scenario.toml_table import TomlTable
-from multicrane.sim import geometry
 
 FORMAT_VERSION = 1
 
@@ -108,34 +106,15 @@ class _Builder:
                 f"{self.source}: components: a scenario needs at least one component"
             )
 
-        ids = self._ids(comp_tables)
+        ids = read_ids(comp_tables)
         interchangeable = rules.get("interchangeable_targets", bool, False)
         components = [
-            self._component(t, ids, random_start is not None, interchangeable) for t in comp_tables
+            read_component(t, ids, size, random_start is not None, interchangeable)
+            for t in comp_tables
         ]
         order = self._order(rules, ids)
         event_spec = None if events is None else parse_events(events, size, ids)
-        cranes = rules.get("cranes", int, len(crane_specs) or 1)
-        if cranes < 1:
-            raise rules.fail("cranes", cranes, "must be at least 1")
-        if crane_specs and cranes != len(crane_specs):
-            raise rules.fail(
-                "cranes",
-                cranes,
-                f"differs from the {len(crane_specs)} [[crane]] entries (give the same count, "
-                "or leave rules.cranes out)",
-            )
-        step_limit = rules.get("step_limit", int)
-        if step_limit < 1:
-            raise rules.fail("step_limit", step_limit, "must be at least 1")
-        assembly_steps = rules.get("assembly_steps", int, 1)
-        if assembly_steps < 1:
-            raise rules.fail("assembly_steps", assembly_steps, "must be at least 1")
-        beam_lift_z = rules.get("beam_lift_z", int, None)
-        if beam_lift_z is not None and not 1 <= beam_lift_z <= size[2]:
-            raise rules.fail("beam_lift_z", beam_lift_z, f"must lie in 1..{size[2]}")
-        rules.finish()
-
+        cranes, step_limit, assembly_steps, beam_lift_z = self._rules(rules, len(crane_specs))
         scenario = Scenario(
             name=name,
             description=description,
@@ -158,9 +137,33 @@ class _Builder:
             events=event_spec,
         )
         check_scenario(scenario, comp_tables)
-        scenario = panels.derive_supports(scenario, comp_tables)
+        scenario = derive_supports(scenario, comp_tables)
         check_reach(scenario, comp_tables)
         return scenario
+
+    def _rules(self, rules: TomlTable, n_crane_specs: int) -> tuple[int, int, int, int | None]:
+        """The crane count, step limit, assembly steps and beam lift height of ``[rules]``."""
+        cranes = rules.get("cranes", int, n_crane_specs or 1)
+        if cranes < 1:
+            raise rules.fail("cranes", cranes, "must be at least 1")
+        if n_crane_specs and cranes != n_crane_specs:
+            raise rules.fail(
+                "cranes",
+                cranes,
+                f"differs from the {n_crane_specs} [[crane]] entries (give the same count, "
+                "or leave rules.cranes out)",
+            )
+        step_limit = rules.get("step_limit", int)
+        if step_limit < 1:
+            raise rules.fail("step_limit", step_limit, "must be at least 1")
+        assembly_steps = rules.get("assembly_steps", int, 1)
+        if assembly_steps < 1:
+            raise rules.fail("assembly_steps", assembly_steps, "must be at least 1")
+        beam_lift_z = rules.get("beam_lift_z", int, None)
+        if beam_lift_z is not None and not 1 <= beam_lift_z <= self.size[2]:
+            raise rules.fail("beam_lift_z", beam_lift_z, f"must lie in 1..{self.size[2]}")
+        rules.finish()
+        return cranes, step_limit, assembly_steps, beam_lift_z
 
     # -- site ------------------------------------------------------------------------------
 
@@ -202,8 +205,8 @@ class _Builder:
             hi = t.ints("max", 3)
             t.finish()
             for name, corner in (("min", lo), ("max", hi)):
-                if not self._in_site(corner):
-                    raise t.fail(name, list(corner), self._outside(corner))
+                if not in_site(corner, self.size):
+                    raise t.fail(name, list(corner), outside(self.size))
             if any(a > b for a, b in zip(lo, hi, strict=True)):
                 raise t.fail("max", list(hi), f"must not be below min {list(lo)}")
             box = Box(lo, hi)  # type: ignore[arg-type]
@@ -216,13 +219,6 @@ class _Builder:
 
     def _in_plan(self, xy: tuple[int, ...]) -> bool:
         return 0 <= xy[0] < self.size[0] and 0 <= xy[1] < self.size[1]
-
-    def _in_site(self, cell: tuple[int, ...]) -> bool:
-        return self._in_plan(cell) and 1 <= cell[2] <= self.size[2]
-
-    def _outside(self, cell: tuple[int, ...]) -> str:
-        x, y, h = self.size
-        return f"lies outside the site (x 0..{x - 1}, y 0..{y - 1}, z 1..{h})"
 
     # -- crane reach -----------------------------------------------------------------------
 
@@ -292,111 +288,7 @@ class _Builder:
         t.finish()
         return RandomStart(z, tuple(bands), tuple(_DIRECTIONS[n] for n in names))
 
-    # -- components ------------------------------------------------------------------------
-
-    def _ids(self, tables: list[TomlTable]) -> list[str]:
-        ids: list[str] = []
-        for t in tables:
-            cid = t.get("id", (str, int))
-            cid = str(cid)
-            if not cid:
-                raise t.fail("id", cid, "must not be empty")
-            if cid in ids:
-                raise t.fail("id", cid, "duplicate component id")
-            ids.append(cid)
-        return ids
-
-    def _pose(self, t: TomlTable, name: str, length: int | None, panel: bool = False) -> Pose:
-        raw = t.get(name, list)
-        if len(raw) != 2:
-            raise t.fail(name, raw, "must be two cells [[x, y, z], [x, y, z]] (node 1, node 2)")
-        a = t.check_ints(name, raw[0], 3)
-        b = t.check_ints(name, raw[1], 3)
-        for cell in (a, b):
-            if not self._in_site(cell):
-                raise t.fail(name, raw, f"cell {list(cell)} {self._outside(cell)}")
-        if not panel and not geometry.is_straight(a, b):
-            raise t.fail(name, raw, "node 1 and node 2 must lie on one axis-parallel line")
-        if length is not None and geometry.pose_length(a, b) != length:
-            raise t.fail(name, raw, f"spans {geometry.pose_length(a, b)} cells, length is {length}")
-        return (a, b)  # type: ignore[return-value]
-
-    def _component(
-        self, t: TomlTable, ids: list[str], random_start: bool, interchangeable: bool
-    ) -> ComponentSpec:
-        cid = str(t.get("id", (str, int)))
-        kind_name = t.get("kind", str)
-        try:
-            kind = Kind[kind_name.upper()]
-        except KeyError:
-            raise t.fail("kind", kind_name, "must be 'column', 'beam', 'slab' or 'wall'") from None
-        panel = kind in PANELS
-        if panel and t.has("length"):
-            raise t.fail("length", t.data["length"], "a panel has no length: its corners say")
-        length = t.get("length", int, None)
-        if length is not None and length < 1:
-            raise t.fail("length", length, "must be at least 1")
-        target = self._pose(t, "target", length, panel)
-        if panel and (problem := panels.target_problem(kind, target)):
-            raise t.fail("target", t.data["target"], problem)
-        length = len(geometry.pose_cells(*target)) if panel else geometry.pose_length(*target)
-        axis = geometry.axis_of(*target)
-        if kind is Kind.COLUMN and length > 1 and axis != 2:
-            raise t.fail("target", t.data["target"], "a column target must stand upright (along z)")
-        if kind is Kind.BEAM and axis == 2 and length > 1:
-            raise t.fail("target", t.data["target"], "a beam target must lie horizontally")
-        prebuilt = t.get("prebuilt", bool, False)
-        initial: Pose | None = None
-        if t.has("initial"):
-            if prebuilt:
-                raise t.fail(
-                    "initial", t.data["initial"], "a pre-built component has no initial pose"
-                )
-            initial = self._pose(t, "initial", None if panel else length, panel)
-            if panel and (problem := panels.initial_problem(kind, initial, target)):
-                raise t.fail("initial", t.data["initial"], problem)
-        elif not prebuilt and (panel or not random_start):
-            why = (
-                "a panel has no random start"
-                if panel
-                else "the scenario has no [random_start] and the component is not pre-built"
-            )
-            raise t.missing("initial", f"required for component {cid!r} ({why})")
-        supports = self._refs(t, "supports", ids)
-        if kind is Kind.COLUMN and supports:
-            raise t.fail("supports", t.data["supports"], "only beams name supports")
-        prebuilt_on = self._refs(t, "prebuilt_on", ids)
-        if prebuilt_on and not prebuilt:
-            raise t.fail("prebuilt_on", t.data["prebuilt_on"], "only pre-built components use it")
-        if prebuilt_on and not interchangeable:
-            raise t.fail(
-                "prebuilt_on",
-                t.data["prebuilt_on"],
-                "needs rules.interchangeable_targets = true (it may stand on another target)",
-            )
-        t.finish()
-        return ComponentSpec(
-            id=cid,
-            kind=kind,
-            length=length,
-            initial=initial,
-            target=target,
-            supports=supports,
-            prebuilt=prebuilt,
-            prebuilt_on=prebuilt_on,
-        )
-
-    def _refs(self, t: TomlTable, name: str, ids: list[str]) -> tuple[int, ...]:
-        raw = t.get(name, list, [])
-        out: list[int] = []
-        for ref in raw:
-            ref_id = str(ref) if isinstance(ref, (str, int)) and not isinstance(ref, bool) else None
-            if ref_id is None or ref_id not in ids:
-                raise t.fail(name, raw, f"{ref!r} is not a component id of this scenario")
-            if ids.index(ref_id) in out:
-                raise t.fail(name, raw, f"{ref!r} is named twice")
-            out.append(ids.index(ref_id))
-        return tuple(out)
+    # -- list order ------------------------------------------------------------------------
 
     def _order(self, rules: TomlTable, ids: list[str]) -> tuple[int, ...]:
         raw = rules.get("order", list, list(ids))

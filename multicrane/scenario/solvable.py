@@ -9,7 +9,7 @@ other checks (``check_solvable``):
   pick-up pose it can have (its fixed initial pose's, or each pose the random start rule
   can draw) to the pose of some target it may fill. An enclosed target fails here.
 - **Precedence.** The targets' supports (a beam's columns, the column target below a
-  column) must form no cycle, else no order of assembly exists.
+  column: ``target_supports``) must form no cycle, else no order of assembly exists.
 
 A failure is a :class:`~multicrane.core.schema.ScenarioError` naming the component's key.
 The search works on whole numpy arrays: about a millisecond per component shape on the
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from multicrane.core.codes import Kind
+from multicrane.core.kinds import STACKED, kind_spec
 from multicrane.core.schema import Cell, Scenario, ScenarioError
 from multicrane.scenario.toml_table import TomlTable
 from multicrane.sim import geometry
@@ -33,7 +33,7 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
 
     def fail(i: int, key: str, problem: str) -> ScenarioError:
         if tables is not None:
-            return tables[i].fail(key, tables[i].data.get(key), problem)
+            return tables[i].refuse(key, problem)
         c = s.components[i]
         value = [list(p) for p in c.target] if key == "target" else [s.ids[j] for j in c.supports]
         return ScenarioError(f"{s.source}: components[{i}].{key} = {value!r}: {problem}")
@@ -42,48 +42,20 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
     if cycle:
         ids = " -> ".join(repr(s.components[i].id) for i in cycle)
         raise fail(cycle[0], "supports", f"the supports form a cycle ({ids}): no assembly order")
-    free = _static_free(s)
-    regions: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray]] = {}
-
-    def label_of(extent: tuple[int, int, int], cell: Cell) -> int:
-        """The connected region (> 0) of the shape's positions holding ``cell``; 0: none.
-        Regions are labelled lazily, one flood fill per region (not per target)."""
-        if extent not in regions:
-            regions[extent] = (_fits(free, extent), np.zeros(free.shape, dtype=np.int32))
-        fits, labels = regions[extent]
-        if not fits[cell]:
-            return 0
-        if labels[cell] == 0:
-            labels[_flood(fits, cell)] = int(labels.max()) + 1
-        return int(labels[cell])
-
-    shared: dict[int, np.ndarray] = {}  # labels of a pick-up list shared by one shape
-
-    def start_labels(i: int) -> np.ndarray:
-        """The region label of each of component ``i``'s pick-up poses (0: does not fit)."""
-        poses = starts[i]
-        if id(poses) not in shared:
-            shared[id(poses)] = _labels(i, poses)
-        return shared[id(poses)]
-
-    def _labels(i: int, poses: list[geometry.Pose]) -> np.ndarray:
-        extent = _offsets(s.components[i].target)
-        label_of(extent, _anchor(poses[0]))  # the regions of this shape exist from here on
-        anchors = np.array([_anchor(p) for p in poses]).T
-        labels = regions[extent][1][tuple(anchors)]
-        for k in np.flatnonzero(labels == 0):  # not flooded yet, or not fitting
-            labels[k] = label_of(extent, _anchor(poses[k]))
-        return labels
-
+    regions = _Regions(_static_free(s))
     pickups: dict[tuple, list[geometry.Pose]] = {}
     starts = {i: _pickup_poses(s, i, pickups) for i, c in enumerate(s.components) if not c.prebuilt}
-    labels_of = {i: start_labels(i) for i in starts}
+    shared: dict[int, np.ndarray] = {}  # labels of a pick-up list shared by one shape
+    for i, poses in starts.items():
+        if id(poses) not in shared:
+            shared[id(poses)] = regions.labels(_offsets(s.components[i].target), poses)
+    labels_of = {i: shared[id(poses)] for i, poses in starts.items()}
     compatible = _compatible_all(s)
     for i, poses in starts.items():
         c = s.components[i]
         targets = compatible[i]
         extent = _offsets(c.target)
-        goal = {label_of(extent, _anchor(s.components[t].target)) for t in targets} - {0}
+        goal = {regions.label_of(extent, _anchor(s.components[t].target)) for t in targets} - {0}
         bad = ~np.isin(labels_of[i], list(goal))
         if bad.any():
             pose = poses[int(np.flatnonzero(bad)[0])]
@@ -95,23 +67,63 @@ def check_solvable(s: Scenario, tables: list[TomlTable] | None = None) -> None:
                 f"{where}'s pick-up pose {[list(p) for p in pose]} to "
                 + ("its target" if len(targets) == 1 else "any target it may fill"),
             )
-    # With interchangeable targets, every target some movable component must fill needs a
-    # component that reaches it from each of its starts.
+    t = _unfilled_target(s, regions, labels_of, compatible)
+    if t is not None:
+        raise fail(
+            t,
+            "target",
+            "cannot be reached: no component that may fill this target has an "
+            "obstacle-free path to it from its pick-up pose(s)",
+        )
+
+
+class _Regions:
+    """The connected regions of each shape's positions in the static site, labelled lazily:
+    one flood fill per region (not per target)."""
+
+    def __init__(self, free: np.ndarray):
+        self.free = free
+        self.by_extent: dict[tuple[int, int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+    def label_of(self, extent: tuple[int, int, int], cell: Cell) -> int:
+        """The connected region (> 0) of the shape's positions holding ``cell``; 0: none."""
+        if extent not in self.by_extent:
+            self.by_extent[extent] = (
+                _fits(self.free, extent), np.zeros(self.free.shape, dtype=np.int32)
+            )
+        fits, labels = self.by_extent[extent]
+        if not fits[cell]:
+            return 0
+        if labels[cell] == 0:
+            labels[_flood(fits, cell)] = int(labels.max()) + 1
+        return int(labels[cell])
+
+    def labels(self, extent: tuple[int, int, int], poses: list[geometry.Pose]) -> np.ndarray:
+        """The region label of each pick-up pose of one shape (0: does not fit)."""
+        self.label_of(extent, _anchor(poses[0]))  # the regions of this shape exist from here on
+        anchors = np.array([_anchor(p) for p in poses]).T
+        labels = self.by_extent[extent][1][tuple(anchors)]
+        for k in np.flatnonzero(labels == 0):  # not flooded yet, or not fitting
+            labels[k] = self.label_of(extent, _anchor(poses[k]))
+        return labels
+
+
+def _unfilled_target(
+    s: Scenario, regions: _Regions, labels_of: dict[int, np.ndarray], compatible: list[set[int]]
+) -> int | None:
+    """A target some movable component must fill that no component reaches from each of its
+    starts (with interchangeable targets, any component that may fill it), or None."""
     maybe_prebuilt = {j for c in s.components if c.prebuilt for j in c.prebuilt_on or ()}
     maybe_prebuilt |= {i for i, c in enumerate(s.components) if c.prebuilt and not c.prebuilt_on}
     for t in range(len(s.components)):
         if t in maybe_prebuilt:
             continue
-        fillers = [i for i in starts if t in compatible[i]]
+        fillers = [i for i in labels_of if t in compatible[i]]
         target = s.components[t].target
-        label = label_of(_offsets(target), _anchor(target))
+        label = regions.label_of(_offsets(target), _anchor(target))
         if label == 0 or not any((labels_of[i] == label).all() for i in fillers):
-            raise fail(
-                t,
-                "target",
-                "cannot be reached: no component that may fill this target has an "
-                "obstacle-free path to it from its pick-up pose(s)",
-            )
+            return t
+    return None
 
 
 def precedence_cycle(s: Scenario) -> list[int]:
@@ -143,15 +155,15 @@ def precedence_cycle(s: Scenario) -> list[int]:
 
 
 def target_supports(s: Scenario) -> list[list[int]]:
-    """Per target, the targets it rests on: a beam's or panel's supports, the column target
-    below a column."""
+    """Per target, the targets it rests on: a beam's or panel's supports, the target below a
+    stacked one (a column: ``multicrane.core.kinds``)."""
     bottom_of: dict[Cell, int] = {}
     for j, c in enumerate(s.components):
         for cell in geometry.pose_cells(*c.target):
             bottom_of[cell] = j
     out = []
     for c in s.components:
-        if c.kind is not Kind.COLUMN:
+        if kind_spec(c.kind).supports != STACKED:
             out.append(list(c.supports))
             continue
         x, y, z = min(geometry.pose_cells(*c.target), key=lambda cell: cell[2])

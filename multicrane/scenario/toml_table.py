@@ -31,6 +31,10 @@ class TomlTable:
             return ScenarioError(f"{self.source}: {self.key(name)}: {problem}")
         return ScenarioError(f"{self.source}: {self.key(name)} = {value!r}: {problem}")
 
+    def refuse(self, name: str, problem: str) -> ScenarioError:
+        """``fail`` with the value the table gives ``name`` (None where it gives none)."""
+        return self.fail(name, self.data.get(name), problem)
+
     def missing(self, name: str, what: str = "required key is missing") -> ScenarioError:
         """A required key is absent; name a present key that looks like a misspelling of it."""
         close = difflib.get_close_matches(name, [str(k) for k in self.data], n=1, cutoff=0.6)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 import math
 
-from multicrane.core.codes import PANELS
+from multicrane.core.kinds import kind_spec
 from multicrane.core.schema import Pose, Scenario
 from multicrane.scenario.events_table import events_lines
 
@@ -82,11 +82,12 @@ def to_toml(s: Scenario) -> str:
     for spec in s.crane_specs:
         out += ["[[crane]]", f"base = {_cell(spec.base)}", f"radius = {_float(spec.radius)}", ""]
     for c in s.components:
+        kind = kind_spec(c.kind)
         out += [
             "[[components]]",
             f"id = {_str(c.id)}",
-            f"kind = {_str(c.kind.name.lower())}",
-            *([] if c.kind in PANELS else [f"length = {c.length}"]),
+            f"kind = {_str(kind.name)}",
+            *([] if kind.panel else [f"length = {c.length}"]),
             f"target = {_pose(c.target)}",
         ]
         if c.initial is not None:

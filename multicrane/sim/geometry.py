@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from multicrane.core.codes import PANELS, Kind
+from multicrane.core.kinds import kind_spec
 
 Cell = tuple[int, int, int]
 Pose = tuple[Cell, Cell]
@@ -21,7 +21,7 @@ class StraightComponent(Protocol):
     one); geometry stays below the scenario schema and never imports it."""
 
     @property
-    def kind(self) -> Kind: ...
+    def kind(self) -> int: ...
 
     @property
     def length(self) -> int: ...
@@ -64,7 +64,7 @@ def pose_cells(a: tuple[int, ...], b: tuple[int, ...]) -> list[Cell]:
     return [(x, y, z) for x in xs for y in ys for z in zs]
 
 
-def shape_key(kind: Kind, target: Pose) -> tuple[int, tuple[int, int, int]]:
+def shape_key(kind: int, target: Pose) -> tuple[int, tuple[int, int, int]]:
     """What interchangeable components must share: kind and the target's box (for a column
     or beam this is kind, length and axis; lifted components keep their target's shape)."""
     return (int(kind), extent(*target))
@@ -81,41 +81,25 @@ def touches(cells_a: list[Cell], cells_b: list[Cell]) -> bool:
 
 
 def lifted_pose(
-    kind: Kind, length: int, initial: Pose, target: Pose, beam_lift_z: int | None
+    kind: int, length: int, initial: Pose, target: Pose, beam_lift_z: int | None
 ) -> Pose:
-    """Where a component goes when it is picked up (the paper's rule, and panels').
+    """Where a component goes when it is picked up: the paper's rule, by its kind's shape
+    (``multicrane.core.kinds``).
 
-    A column is stood upright on node 1's (x, y) and raised by one cell. A beam is raised to
-    ``beam_lift_z`` (default: the height of its own target) and turned about its centre
-    ``(floor((x1 + x2) / 2), floor((y1 + y2) / 2))`` to the orientation of its own target.
-    Panels: ``_lifted_panel``.
+    A vertical bar (column) is stood upright on node 1's (x, y) and raised by one cell. Every
+    other shape is turned about its centre ``(floor((x1 + x2) / 2), floor((y1 + y2) / 2))``
+    to the orientation of its own target: a horizontal one (beam, slab) is raised to
+    ``beam_lift_z`` (default: the height of its own target), a vertical panel (wall) is stood
+    upright on its centre line, one cell up (bottom at ``z + 1``).
     """
     (x1, y1, z1), (x2, y2, _) = initial
-    if kind in PANELS:
-        return _lifted_panel(kind, initial, target, beam_lift_z)
-    if kind is Kind.COLUMN:
+    spec = kind_spec(kind)
+    if not spec.lifted_about_centre:
         return ((x1, y1, z1 + 1), (x1, y1, z1 + length))
-    z = beam_lift_z if beam_lift_z is not None else target[0][2]
-    centre = [(x1 + x2) // 2, (y1 + y2) // 2]
-    axis = axis_of(*target)
-    start = list(centre)
-    start[axis] -= (length - 1) // 2
-    end = list(start)
-    end[axis] += length - 1
-    return ((start[0], start[1], z), (end[0], end[1], z))
-
-
-def _lifted_panel(kind: Kind, initial: Pose, target: Pose, lift_z: int | None) -> Pose:
-    """A panel lies flat in the yard. A slab is raised flat to ``lift_z`` (default: its own
-    target's height) and turned about its centre to its target's orientation; a wall is
-    stood upright in its target's orientation on its centre line, one cell up (bottom at
-    ``z + 1``). The centre is ``(floor((x1 + x2) / 2), floor((y1 + y2) / 2))``."""
-    (x1, y1, z1), (x2, y2, _) = initial
-    centre = [(x1 + x2) // 2, (y1 + y2) // 2]
     size = extent(*target)
-    lo = [centre[0], centre[1], z1 + 1]
-    if kind is Kind.SLAB:
-        lo[2] = lift_z if lift_z is not None else target[0][2]
+    lo = [(x1 + x2) // 2, (y1 + y2) // 2, z1 + 1]
+    if not spec.upright:
+        lo[2] = beam_lift_z if beam_lift_z is not None else target[0][2]
     for axis in (0, 1):
         lo[axis] -= (size[axis] - 1) // 2
     hi = [lo[axis] + size[axis] - 1 for axis in range(3)]
@@ -130,6 +114,3 @@ def pickup_pose(
     assert start is not None, "a pre-built component is never picked up"
     return lifted_pose(component.kind, component.length, start, component.target, beam_lift_z)
 
-
-def in_site(cell: tuple[int, ...], size: tuple[int, int, int]) -> bool:
-    return 0 <= cell[0] < size[0] and 0 <= cell[1] < size[1] and 1 <= cell[2] <= size[2]

@@ -39,7 +39,7 @@ def breadth_first(
     The frontier is kept as an index array, so each depth costs the size of its frontier,
     not of the grid (a position p's neighbours are ``p + d``, those inside the array); the
     moves are taken one at a time, each closing what it finds, so no position is found twice.
-    Equal to the whole-array version it replaced (tests/test_incremental.py)."""
+    Equal to the whole-array version it replaced (tests/sim/test_incremental.py)."""
     n = ok.size
     dist = np.full(n, UNREACHABLE, dtype=np.int32)
     first = np.array(sorted({int(s) for s in starts if ok[s]}), dtype=np.intp)

@@ -176,7 +176,8 @@ class Legality:
     def _update_targets(self, targets: list[int]) -> None:
         """Re-judge the readiness of these targets only (a component arrived at one, or one
         carrying them was assembled); components whose ``_has_ready`` flips are rechecked.
-        Equal to ``_refresh_targets`` (tests/test_incremental.py), but linear in what changed."""
+        Equal to ``_refresh_targets`` (tests/sim/test_incremental.py), but linear in what
+        changed."""
         ready, count, has = self.target_ready, self._ready_count, self._has_ready
         users, recheck = self._target_users, self._recheck
         for t in targets:

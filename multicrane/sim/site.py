@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from multicrane.core.codes import CLAIM_BASE, MOVE_DELTAS, Kind, waits_for_target
+from multicrane.core.codes import CLAIM_BASE, MOVE_DELTAS
+from multicrane.core.kinds import STACKED, kind_spec, waits_for_target
 from multicrane.core.schema import Scenario
 from multicrane.sim import geometry
 
@@ -137,12 +138,12 @@ class Site:
     def _target_supports(self) -> list[list[int]]:
         """Targets that must hold assembled components before this target can be filled.
 
-        Beams and panels name theirs (the loader derives a panel's); a column target standing
-        on another column target needs that one.
+        Beams and panels name theirs (the loader derives a panel's); a target of a stacked
+        kind (``multicrane.core.kinds``: a column) standing on another target needs that one.
         """
         supports = []
         for c in self.scenario.components:
-            if c.kind is not Kind.COLUMN:
+            if kind_spec(c.kind).supports != STACKED:
                 supports.append(list(c.supports))
                 continue
             bottom = min(geometry.pose_cells(*c.target), key=lambda cell: cell[2])

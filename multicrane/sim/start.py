@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from multicrane.core.codes import Kind
+from multicrane.core.kinds import kind_spec
 from multicrane.core.schema import ComponentSpec, Scenario, ScenarioError
 from multicrane.sim import geometry
 
@@ -66,10 +66,11 @@ def _candidates(scenario: Scenario, index: int) -> _Candidates:
     if key in _CACHE:
         return _CACHE[key]
     component = scenario.components[index]
-    # The table depends only on the component's shape: kind, length, and for a beam its own
-    # target's axis and height (its pick-up pose); components of one shape share it.
+    # The table depends only on the component's shape: kind, length, and for a kind lifted
+    # about its centre (a beam) its own target's axis and height (its pick-up pose);
+    # components of one shape share it.
     shape = (scenario.sha256, scenario.source, "shape", component.kind, component.length)
-    if component.kind is Kind.BEAM:
+    if kind_spec(component.kind).lifted_about_centre:
         shape += (geometry.axis_of(*component.target), component.target[0][2])
     if shape not in _CACHE:
         if len(_CACHE) > _CACHE_MAX:
@@ -145,9 +146,10 @@ def _lifted_cells(
     component: ComponentSpec, beam_lift_z: int | None, n1: np.ndarray, n2: np.ndarray,
     steps: np.ndarray,
 ) -> np.ndarray:  # fmt: skip
-    """The cells of the pick-up pose of each start (``geometry.lifted_pose`` on arrays)."""
+    """The cells of the pick-up pose of each start (``geometry.lifted_pose`` on arrays; only
+    bars start at random)."""
     length = component.length
-    if component.kind is Kind.COLUMN:
+    if not kind_spec(component.kind).lifted_about_centre:
         base = n1 + np.array([0, 0, 1])
         axis = 2
     else:

@@ -3,7 +3,7 @@
 A component starts an episode ``INITIAL`` (lying in the yard) or, if pre-built, ``ASSEMBLED``;
 after that its status only changes along ``TRANSITIONS``. The simulator asks ``event_of``
 before every status change (a change not in the table raises ``TransitionError``), the
-environments' docstrings print ``table_text()``, and ``tests/test_transitions.py`` drives
+environments' docstrings print ``table_text()``, and ``tests/sim/test_transitions.py`` drives
 every row and checks every other change is refused.
 """
 

@@ -91,8 +91,8 @@ def exclusive_masks(masks: np.ndarray, choices, tasks: TaskList):
 
 def task_list(env) -> TaskList | None:
     """The site's ``TaskList`` of a task-level environment (None at the motion level)."""
-    mode = getattr(getattr(env, "unwrapped", env), "task_mode", None)
-    return None if mode is None else mode.book.tasks
+    mode = getattr(getattr(env, "unwrapped", env), "mode", None)
+    return mode.task_book().tasks if getattr(mode, "task_level", False) else None
 
 
 class StaticPaths:

@@ -273,17 +273,53 @@ def space_time_search(
     h0 = h[start]
     if h0 < 0 or not ok[goal]:
         return None, 0
-    # The goal is held for ever from the arrival: no reservation may touch it after.
+    free_from = goal_free_from(res, comp, rel, goal, t_start)
+    if free_from is None:
+        return None, 0
+    if start == goal:
+        return ([start] if t_start >= free_from else None), 0
+    t_cap = t_start + h0 + slack
+    found, parent, expansions = _astar(
+        res, comp, rel, start, t_start, goal, stops, ok, h, deltas, t_cap, free_from,
+        max_expansions,
+    )  # fmt: skip
+    if found is None:
+        return None, expansions
+    return _unwind(parent, found), expansions
+
+
+def goal_free_from(
+    res: ReservationTable, comp: int, rel: tuple[int, ...], goal: int, t_start: int
+) -> int | None:
+    """The first time from ``t_start`` on after which no other reservation touches the goal's
+    cells (the goal is held for ever from the arrival); None when one holds them for ever."""
     free_from = t_start
     for r in rel:
         for _, b, o in res.get(goal + r, ()):
             if o != comp:
                 if b >= INF:
-                    return None, 0
+                    return None
                 free_from = max(free_from, b + 1)
-    if start == goal:
-        return ([start] if t_start >= free_from else None), 0
-    t_cap = t_start + h0 + slack
+    return free_from
+
+
+def _astar(
+    res: ReservationTable,
+    comp: int,
+    rel: tuple[int, ...],
+    start: int,
+    t_start: int,
+    goal: int,
+    stops: set[int],
+    ok: bytes,
+    h: memoryview,
+    deltas: list[int],
+    t_cap: int,
+    free_from: int,
+    max_expansions: int,
+) -> tuple[tuple[int, int] | None, dict, int]:
+    """The A* loop of ``space_time_search``: the goal state reached (or None), the parent of
+    every state reached, and the number of states expanded."""
     get = res.get
 
     def conflict_at(p: int, lo: int, hi: int) -> bool:
@@ -296,6 +332,7 @@ def space_time_search(
                         return True
         return False
 
+    h0 = h[start]
     parent: dict[tuple[int, int], tuple[int, int] | None] = {(start, t_start): None}
     heap = [(h0, h0, t_start, start)]
     expansions = 0
@@ -336,12 +373,15 @@ def space_time_search(
             heapq.heappush(heap, (t1 - t_start + hq, hq, t1, q))
         if found is not None:
             break
-    if found is None:
-        return None, expansions
+    return found, parent, expansions
+
+
+def _unwind(parent: dict, found: tuple[int, int]) -> list[int]:
+    """The positions from the search's start to ``found``, following the parents."""
     path = []
     node = found
     while node is not None:
         path.append(node[0])
         node = parent[node]
     path.reverse()
-    return path, expansions
+    return path

@@ -13,6 +13,9 @@
 The names below are imported on first use, so ``multicrane.training.seeding`` (and this
 package) import without the extra; using ``train`` and the others without it raises an
 ``ImportError`` that names the extra.
+
+May import: every room below it (``core`` to ``ifc``), never ``benchmark``, ``reports``,
+``integrations`` or ``cli``.
 """
 
 from __future__ import annotations

@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from multicrane.envs.decision_modes import DECISION_MODES, DEFAULT_DECISIONS, decision_mode
 from multicrane.envs.paper_env import PAPER_CONFIGS
 from multicrane.files import write_atomic
 
@@ -110,10 +111,13 @@ class TrainConfig:
             self.scenario = str(self.scenario).upper()
             if self.n_cranes not in (None, 1):
                 raise ConfigError(f"n_cranes={self.n_cranes!r}: paper mode has one crane")
-        if self.decisions not in ("motion", "task"):
-            raise ConfigError(f"decisions={self.decisions!r}: must be 'motion' or 'task'")
-        if self.paper and self.decisions != "motion":
-            raise ConfigError("decisions='task' is a multi-agent option, not paper mode")
+        if self.decisions not in DECISION_MODES:
+            names = " or ".join(repr(name) for name in DECISION_MODES)
+            raise ConfigError(f"decisions={self.decisions!r}: must be {names}")
+        if self.paper and self.decisions != DEFAULT_DECISIONS:
+            raise ConfigError(
+                f"decisions={self.decisions!r} is a multi-agent option, not paper mode"
+            )
         for name in ("total_steps", "eval_episodes", "torch_threads", "imitate_episodes",
                      "imitate_epochs"):  # fmt: skip
             value = getattr(self, name)
@@ -178,7 +182,8 @@ class TrainConfig:
                 if getattr(self, name) is not None:
                     raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
             return
-        if self.paper or self.decisions != "task" or self.algo != "maskable_ppo":
+        task = decision_mode(self.decisions).task_level
+        if self.paper or not task or self.algo != "maskable_ppo":
             raise ConfigError(
                 "policy='set' needs the multi-agent mode with decisions='task' and "
                 f"algo='maskable_ppo' (got paper={self.paper}, decisions={self.decisions!r}, "

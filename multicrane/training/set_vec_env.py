@@ -80,7 +80,7 @@ class SetVecEnv(CraneVecEnv):
         self._actions: np.ndarray | None = None
 
     def _padder(self, env: MultiCraneEnv, copy: int) -> Padder:
-        if env.decisions != "task":
+        if not env.mode.task_level:
             raise ValueError(f"copy {copy}: the set policy needs decisions='task'")
         self.limits.check(env.observation_layout, f"copy {copy} ({env.scenario.name})")
         return Padder(env.observation_layout, self.limits)

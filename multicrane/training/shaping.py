@@ -49,7 +49,8 @@ class DistancePotential:
     the component moved or changed status, or one of its compatible targets was filled or
     freed (a step moves at most one component per crane), and the sum is kept as a running
     total; which components changed is found by whole-array comparisons with the last call.
-    The value equals the from-scratch sum (``potential_from_scratch``; tests/test_shaping.py).
+    The value equals the from-scratch sum (``potential_from_scratch``;
+    tests/training/test_shaping.py).
     """
 
     def __init__(self, sim: Simulator):

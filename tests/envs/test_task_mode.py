@@ -70,7 +70,7 @@ def test_pettingzoo_api_and_seed_tests(name):
 def test_spaces_and_layout():
     env = task_env("e3s2", 2)
     obs, infos = env.reset(seed=0)
-    book = env.task_mode.book
+    book = env.mode.task_book()
     P = len(book.tasks)
     assert env.action_space("crane_0").n == 1 + P
     # component-major: each component's compatible targets, in order
@@ -104,7 +104,7 @@ def test_same_seed_same_episode():
         while env.agents:
             obs, r, *_ = env.step(random_tasks(obs, rng))
             trail.append((env.sim.state.step_count, r["crane_0"], env.sim.state.status.tobytes()))
-        return trail, env.task_mode.trace
+        return trail, env.mode.trace
 
     assert run(3) == run(3)
     assert run(3)[0] != run(4)[0]  # a random-start scenario: another seed, another episode
@@ -131,7 +131,7 @@ def test_random_task_play_keeps_the_invariants(name):
             obs2, infos2 = motion.reset(seed=seed)
             checker = Checker(motion)
             checker.reset(obs2, infos2)
-            for joint in env.task_mode.trace:
+            for joint in env.mode.trace:
                 actions = dict(zip(motion.possible_agents, joint, strict=True))
                 out = motion.step(actions)
                 checker.step(actions, *out)
@@ -159,7 +159,7 @@ def _beam_with_unready_target(sim):
 def test_masks_table():
     env = task_env("e3s2", 2)
     obs, _ = env.reset(seed=0)
-    book, sim = env.task_mode.book, env.sim
+    book, sim = env.mode.task_book(), env.sim
     tasks = book.tasks
     m = book.masks()
     assert m[:, 0].all()
@@ -192,7 +192,7 @@ def test_reach_masks_and_carrier():
     )
     env = readable_env(far, n_cranes=2, decisions="task")
     env.reset(seed=0)
-    book = env.task_mode.book
+    book = env.mode.task_book()
     m = book.masks()
     assert not m[0, 1:].any()  # crane 0 reaches neither the yard nor the building
     assert m[1, 1:].any()
@@ -204,7 +204,7 @@ def test_reach_masks_and_carrier():
     planner = policies.make("prioritized", env, seed=0)
     m = run_episode(env, planner, seed=0)
     assert m["success"]
-    assert all(d[0] == 0 for d in env.task_mode.decisions)  # crane 0 never takes a task
+    assert all(d[0] == 0 for d in env.mode.decisions)  # crane 0 never takes a task
 
 
 # -- hold, retry, drop ------------------------------------------------------------------------
@@ -214,7 +214,7 @@ def test_reach_masks_and_carrier():
 def test_hold_retry_and_drop(monkeypatch, fail_for, expect):
     env = task_env("e2s2", 1, task_patience=3)
     obs, _ = env.reset(seed=0)
-    book = env.task_mode.book
+    book = env.mode.task_book()
     real = book.carrier.try_start
     calls = []
 
@@ -244,7 +244,7 @@ def test_refused_when_an_earlier_crane_takes_it():
     p = int(np.flatnonzero(obs["crane_0"]["action_mask"][1:])[0])
     _, _, _, _, infos = env.step({"crane_0": 1 + p, "crane_1": 1 + p})
     assert ("TASK_REFUSED", 1, p) in infos["crane_1"]["task_events"]
-    assert env.task_mode.book.task[1] == -1
+    assert env.mode.task_book().task[1] == -1
 
 
 def test_busy_crane_may_only_continue_strict():
@@ -369,7 +369,7 @@ def test_clone_mid_episode_continues_identically(how):
             assert np.array_equal(obs[a]["observation"], obs_b[a]["observation"])
             assert np.array_equal(obs[a]["action_mask"], obs_b[a]["action_mask"])
     assert not clone.agents
-    assert clone.task_mode.trace == env.task_mode.trace
+    assert clone.mode.trace == env.mode.trace
 
 
 def test_bench_task_mode(capsys):
@@ -389,5 +389,5 @@ def test_a_probed_task_wins_over_a_plain_choice_of_the_same_component():
     assert env.task_feasible(1, p)
     _, _, _, _, infos = env.step({"crane_0": 1 + p, "crane_1": 1 + p})
     assert ("TASK_REFUSED", 0, p) in infos["crane_0"]["task_events"]
-    book = env.task_mode.book
+    book = env.mode.task_book()
     assert book.task[0] == -1 or book.tasks.comp[book.task[0]] != book.tasks.comp[p]

@@ -1,7 +1,8 @@
 """Task-level decisions through RLlib: the adapter, and ``train --backend rllib --decisions task``.
 
 The training test (markers ``ray`` and ``long``) runs the command in its own process on a
-local Ray instance (no cluster: tests/test_rllib.py covers ``--address``), one small iteration, then
+local Ray instance (no cluster: tests/integrations/test_rllib.py covers ``--address``), one
+small iteration, then
 reloads the checkpoint here and plays task mode with it. About 15 s on a quiet 2-core
 machine, 43 s measured under a load average of 5. All skip without the ``rllib`` extra.
 """

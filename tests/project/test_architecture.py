@@ -5,7 +5,11 @@
 - No import cycle between modules (an import under ``TYPE_CHECKING`` counts: it is still a
   dependency a reader must follow). A package's ``__init__`` importing its own submodules to
   re-export them is not a cycle.
-- Every module opens with a docstring saying its one job, and none is much over 400 lines.
+- The library's folders are its rooms, ordered by layer (``ROOMS``, lowest first): no module
+  imports a module of a higher room. The root package keeps the public face and a few shared
+  helpers that import nothing of ours; every room's ``__init__`` says what it may import.
+- Every module opens with a docstring saying its one job; none is over 400 lines and no
+  function is over 80.
 """
 
 from __future__ import annotations
@@ -17,7 +21,18 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("multicrane", "policies")
-MAX_LINES = 450  # "none much over 400 lines"
+MAX_LINES = 400
+MAX_FUNCTION_LINES = 80
+MAX_ROOT_MODULES = 10
+
+# The rooms of ``multicrane``, lowest first; docs/architecture.md draws them in this order.
+ROOMS = (
+    "core", "sim", "scenario", "render", "tasks", "envs", "bounds", "episodes", "replay", "ifc",
+    "training", "benchmark", "reports", "integrations", "cli",
+)
+# The root package: its ``__init__`` is the public face (it re-exports the environments, so it
+# stands with ``envs``); the other root modules are helpers below every room.
+PUBLIC_FACE_RANK = ROOMS.index("envs")
 
 
 def module_files(root: Path = ROOT) -> dict[str, Path]:
@@ -124,6 +139,44 @@ def upward_imports(graph: dict[str, set[str]]) -> list[str]:
     )
 
 
+def rank(module: str) -> int | None:
+    """The layer of a ``multicrane`` module: its room's index, -1 for a root helper, None when
+    the module is not in ``multicrane`` (``policies``) or is the command's entry point."""
+    parts = module.split(".")
+    if parts[0] != "multicrane" or module == "multicrane.__main__":
+        return None
+    if len(parts) == 1:
+        return PUBLIC_FACE_RANK
+    if parts[1] in ROOMS:
+        return ROOMS.index(parts[1])
+    return -1
+
+
+def downward_violations(graph: dict[str, set[str]]) -> list[str]:
+    """Imports from a lower room to a higher one (a room's own package may import its modules)."""
+    bad = []
+    for m, deps in graph.items():
+        low = rank(m)
+        if low is None:
+            continue
+        for d in deps:
+            high = rank(d)
+            if high is not None and high > low:
+                bad.append(f"{m} -> {d}")
+    return sorted(bad)
+
+
+def long_functions(mods: dict[str, Path], limit: int = MAX_FUNCTION_LINES) -> list[str]:
+    found = []
+    for name, path in mods.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > limit:
+                    found.append(f"{name}.{node.name}: {n} lines")
+    return sorted(found)
+
+
 MODULES = module_files()
 GRAPH = import_graph(MODULES)
 
@@ -136,6 +189,29 @@ def test_no_import_cycles():
     assert cycles(GRAPH) == []
 
 
+def test_no_import_from_a_lower_room_to_a_higher_one():
+    assert downward_violations(GRAPH) == []
+
+
+def test_every_folder_is_a_room_that_says_what_it_may_import():
+    package = ROOT / "multicrane"
+    folders = sorted(p.name for p in package.iterdir() if (p / "__init__.py").exists())
+    assert folders == sorted(ROOMS)
+    for room in ROOMS:
+        doc = ast.get_docstring(ast.parse((ROOT / "multicrane" / room / "__init__.py").read_text()))
+        assert doc and "May import" in doc, f"multicrane/{room}/__init__.py: say what it may import"
+
+
+def test_the_root_keeps_the_public_face_and_a_few_helpers():
+    root = sorted(p.name for p in (ROOT / "multicrane").glob("*.py"))
+    assert len(root) <= MAX_ROOT_MODULES, root
+    for name in root:
+        if name in ("__init__.py", "__main__.py"):
+            continue
+        helper = f"multicrane.{name.removesuffix('.py')}"
+        assert GRAPH[helper] == set(), f"{helper} is a shared helper: it imports nothing of ours"
+
+
 @pytest.mark.parametrize("name", sorted(MODULES))
 def test_module_says_its_job_and_is_small(name):
     path = MODULES[name]
@@ -143,7 +219,11 @@ def test_module_says_its_job_and_is_small(name):
     doc = ast.get_docstring(ast.parse(text))
     assert doc and doc.strip().splitlines()[0].strip(), f"{path}: no module docstring"
     n = len(text.splitlines())
-    assert n <= MAX_LINES, f"{path}: {n} lines; a module much over 400 lines does two jobs"
+    assert n <= MAX_LINES, f"{path}: {n} lines; a module over 400 lines does two jobs"
+
+
+def test_no_function_over_80_lines():
+    assert long_functions(MODULES) == [], "a function over 80 lines does two jobs"
 
 
 # -- the checker itself must be able to fail -------------------------------------------------
@@ -164,3 +244,22 @@ def test_checker_finds_a_cycle_and_an_upward_import(tmp_path):
     graph = import_graph(module_files(tmp_path))
     assert cycles(graph) == [["multicrane.a", "multicrane.b"]]
     assert upward_imports(graph) == ["multicrane.low -> policies.p"]
+
+
+def test_checker_finds_an_import_from_a_lower_room_and_a_long_function(tmp_path):
+    pkg = tmp_path / "multicrane"
+    for room in ("sim", "envs"):
+        (pkg / room).mkdir(parents=True)
+        (pkg / room / "__init__.py").write_text(f'"""{room}."""\n')
+    (pkg / "__init__.py").write_text('"""p."""\n')
+    (tmp_path / "policies").mkdir()
+    (pkg / "sim" / "rules.py").write_text('"""r."""\nfrom multicrane.envs import env\n')
+    body = "".join("    x = 1\n" for _ in range(MAX_FUNCTION_LINES))
+    (pkg / "envs" / "env.py").write_text(f'"""e."""\nimport multicrane.sim.rules\ndef f():\n{body}')
+    mods = module_files(tmp_path)
+    graph = import_graph(mods)
+    assert downward_violations(graph) == [
+        "multicrane.sim.rules -> multicrane.envs",
+        "multicrane.sim.rules -> multicrane.envs.env",
+    ]
+    assert long_functions(mods) == [f"multicrane.envs.env.f: {MAX_FUNCTION_LINES + 1} lines"]

@@ -134,6 +134,28 @@ def module_name(path: Path) -> str:
     return ".".join(path.relative_to(ROOT).with_suffix("").parts).removesuffix(".__init__")
 
 
+def test_architecture_picture_stacks_the_rooms_in_layer_order():
+    """The picture of docs/architecture.md lists the rooms top floor first, as ROOMS orders them."""
+    from test_architecture import ROOMS
+
+    page = (ROOT / "docs" / "architecture.md").read_text()
+    picture = page.split("```")[1].splitlines()
+    drawn = [line.split()[0] for line in picture if line.strip() and line.split()[0] in ROOMS]
+    assert drawn == list(reversed(ROOMS))
+
+
+def test_architecture_module_map_is_the_one_the_source_writes():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("amap", ROOT / "tools" / "architecture_map.py")
+    amap = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(amap)
+    page = (ROOT / "docs" / "architecture.md").read_text()
+    assert f"{amap.BEGIN}\n\n{amap.module_map()}\n{amap.END}" in page, (
+        "the module map is out of date: run python3 tools/architecture_map.py"
+    )
+
+
 def test_architecture_page_maps_every_module():
     """docs/architecture.md lists every module of both packages (its module map)."""
     page = (ROOT / "docs" / "architecture.md").read_text()

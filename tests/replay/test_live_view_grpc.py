@@ -5,7 +5,7 @@ The server is rerun's own command (``rerun --bind 127.0.0.1 --port P --save FILE
 file instead of showing it. The environment connects with ``MULTICRANE_RERUN_SINK=
 rerun+http://127.0.0.1:P/proxy``, as a user pointing it at ``rerun --serve-web`` or a remote
 viewer would; ``rerun rrd print`` then reads the file back. A few seconds; skipped without
-rerun. (The in-memory sink is tested in tests/test_env_options.py.)
+rerun. (The in-memory sink is tested in tests/envs/test_env_options.py.)
 """
 
 from __future__ import annotations

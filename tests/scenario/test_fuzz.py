@@ -4,15 +4,15 @@ Scenario files: each case is a shipped scenario with 1-4 mutations (a value repl
 another type or range, a key deleted, an unknown key added, a list element duplicated or
 dropped, a coordinate or size nudged), written back as TOML, plus raw byte damage. It must
 either raise ``ScenarioError`` or load, and then run 100 random legal joint steps with every
-invariant of ``tests/test_invariants.py`` holding. Record files: a saved record with JSON-level
+invariant of ``tests/sim/test_invariants.py`` holding. Record files: a saved record with JSON-level
 mutations (checksum recomputed or not) or byte damage must load or raise ``RecordError``; a
 loaded one must re-simulate or raise ``RecordError``. Nothing else is acceptable.
 
 The default sizes fit the suite; ``-m fuzz`` runs the large sizes (see docs/reliability.md):
 
-    MULTICRANE_FUZZ_EXAMPLES=2000 python -m pytest -m fuzz tests/test_fuzz.py
+    MULTICRANE_FUZZ_EXAMPLES=2000 python -m pytest -m fuzz tests/scenario/test_fuzz.py
 
-and ``python tests/test_fuzz.py N`` runs N random cases of each kind and prints the outcome
+and ``python tests/scenario/test_fuzz.py N`` runs N random cases of each kind and prints the outcome
 counts and times (the figures of docs/reliability.md).
 """
 
@@ -185,7 +185,7 @@ COMMON = dict(
 def large_run(request):
     """The large runs only with ``-m fuzz`` (they are not part of the default suite)."""
     if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large fuzz run: python -m pytest -m fuzz tests/test_fuzz.py")
+        pytest.skip("the large fuzz run: python -m pytest -m fuzz tests/scenario/test_fuzz.py")
 
 
 @settings(max_examples=400, **COMMON)

@@ -6,7 +6,7 @@ scenario (same bytes each time: deterministic), pass PettingZoo's parallel api t
 few cycles, and be finished by the prioritized planner within its step limit. The default
 run keeps the sites small; ``-m fuzz`` runs more and larger ones:
 
-    MULTICRANE_GENERATOR_EXAMPLES=300 python -m pytest -m fuzz tests/test_generator.py
+    MULTICRANE_GENERATOR_EXAMPLES=300 python -m pytest -m fuzz tests/scenario/test_generator.py
 """
 
 from __future__ import annotations
@@ -97,7 +97,7 @@ COMMON = dict(deadline=None, database=None, suppress_health_check=list(HealthChe
 def large_run(request):
     """The large run only with ``-m fuzz`` (not part of the default suite)."""
     if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large run: python -m pytest -m fuzz tests/test_generator.py")
+        pytest.skip("the large run: python -m pytest -m fuzz tests/scenario/test_generator.py")
 
 
 @settings(max_examples=100, derandomize=True, **COMMON)

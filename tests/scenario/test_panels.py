@@ -4,7 +4,7 @@ boxes, records, scenario text) and planner on the shipped precast scenarios.
 
 ``MINI`` is the hand-built site: a 3 x 2 wall panel standing on a foundation strip and a
 3 x 2 slab resting on the wall's top row, both lying flat in the yard. Broken variants are
-``MINI`` with one text edit, as in ``tests/test_scenario_loader.py``.
+``MINI`` with one text edit, as in ``tests/scenario/test_scenario_loader.py``.
 """
 
 from __future__ import annotations
@@ -382,7 +382,7 @@ def test_record_and_resimulate_a_panel_episode(tmp_path):
 @pytest.mark.parametrize("name", PRECAST)
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
 def test_prioritized_and_greedy_finish_the_precast_buildings(name, n):
-    """Motion-level planners (the task-level prioritized one: tests/test_task_mode.py)."""
+    """Motion-level planners (the task-level prioritized one: tests/envs/test_task_mode.py)."""
     for policy in ("prioritized", "greedy"):
         env = multicrane.parallel_env(name, n_cranes=n)
         m = run_episode(env, policies.make(policy, env, seed=0), seed=0)

@@ -1,6 +1,6 @@
 """Site events (``multicrane.sim.events``): rules on hand-built states, determinism, invariants.
 
-The rule tests use the micro site of ``tests/test_rules.py`` (two columns in the yard, a beam
+The rule tests use the micro site of ``tests/sim/test_rules.py`` (two columns in the yard, a beam
 on both column targets) with a schedule written by hand; the rest use the shipped scenarios
 with the presets and an everything-on spec.
 """
@@ -311,7 +311,7 @@ def test_invariants_long_random_play_with_events(request, name, decisions, event
     """The large runs, only with ``-m fuzz`` (about 100 s): long random play on every
     shipped scenario, both decision levels and the automatic mode."""
     if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large events run: python -m pytest -m fuzz tests/test_events.py")
+        pytest.skip("the large events run: python -m pytest -m fuzz tests/sim/test_events.py")
     if (why := reach_skip(name, 1 if decisions == "auto" else None)) is not None:
         pytest.skip(why)
     env = events_env(name, decisions, events, n_cranes=None)

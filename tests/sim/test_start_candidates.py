@@ -10,6 +10,7 @@ from __future__ import annotations
 import pytest
 
 from multicrane.scenario.catalog import scenario_names
+from multicrane.scenario.components_table import in_site
 from multicrane.scenario.generator import generate
 from multicrane.scenario.loader import load_scenario
 from multicrane.sim import geometry
@@ -30,7 +31,7 @@ def per_pose(scenario, component):
                     pose = ((x, y, rule.z), (x + k * d[0], y + k * d[1], rule.z + k * d[2]))
                     cells = geometry.pose_cells(*pose)
                     ok = all(
-                        geometry.in_site(c, scenario.size)
+                        in_site(c, scenario.size)
                         and c not in obstacle
                         and not scenario.in_construction_area(c[0], c[1])
                         for c in cells
@@ -38,7 +39,7 @@ def per_pose(scenario, component):
                     if ok:
                         lifted = geometry.pickup_pose(component, scenario.beam_lift_z, pose)
                         ok = all(
-                            geometry.in_site(c, scenario.size) and c not in obstacle
+                            in_site(c, scenario.size) and c not in obstacle
                             for c in geometry.pose_cells(*lifted)
                         )
                     if ok:

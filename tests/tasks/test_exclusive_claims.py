@@ -66,7 +66,7 @@ def test_the_real_first_round_of_a_site():
     masks = np.stack([obs[a]["action_mask"] for a in env.possible_agents])
     scores = np.zeros(masks.shape)  # every crane indifferent between tasks: the first one
     scores[:, 0] = -1.0
-    tasks = env.task_mode.book.tasks
+    tasks = env.mode.task_book().tasks
     actions = exclusive_actions(scores, masks, tasks)
     chosen = [tasks.pairs[a - 1] for a in actions if a > 0]
     assert len(chosen) == len({c for c, _ in chosen}) == len({t for _, t in chosen}) > 1
