@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from multicrane.envs.decision_modes import task_level
+from multicrane.episodes.random_actions import random_legal_action
 from policies.prioritized import assign_in_rank, check_rank
 
 
@@ -110,6 +111,6 @@ class TaskRandom:
     def __call__(self, observations: dict) -> dict:
         out = {}
         for a in self.env.possible_agents:
-            legal = np.flatnonzero(observations[a]["action_mask"][1:])
-            out[a] = 1 + int(legal[self.rng.integers(len(legal))]) if len(legal) else 0
+            tasks = observations[a]["action_mask"][1:]  # every action but waiting
+            out[a] = 1 + random_legal_action(tasks, self.rng) if tasks.any() else 0
         return out

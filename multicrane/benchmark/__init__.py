@@ -6,7 +6,7 @@ mode, run, resumed, aggregated into Table I's metric and plotted (``multicrane b
 - ``manifest``: the sweep directory's ``sweep.json`` (sessions) and its lock.
 - ``estimate``: how long runs take; longest first.
 - ``sweep``: running a sweep on a backend, resuming what was started.
-- ``jobs``: one run as a unit of work (``Task`` -> ``execute_run`` -> ``Outcome``).
+- ``jobs``: one run as a unit of work (``Job`` -> ``execute_run`` -> ``Outcome``).
 - ``backends``: a backend by name: ``local`` (processes), ``ray`` (``ray_backend``),
   ``serial`` (this process); ``interrupts`` routes Ctrl-C to them.
 - ``aggregate``: Table I's metric over the result files.

@@ -3,8 +3,8 @@ processes, the default), ``ray`` (Ray tasks, local or on a cluster) or ``serial`
 process).
 
 Every backend has ``name``, ``workers``, ``returns_results`` (whether outcomes carry the
-whole result for the driver to write) and ``run(tasks, report) -> interrupted``: it runs
-``execute_run`` on each ``Task`` and hands each ``Outcome`` to ``report`` as it arrives. A
+whole result for the driver to write) and ``run(jobs, report) -> interrupted``: it runs
+``execute_run`` on each ``Job`` and hands each ``Outcome`` to ``report`` as it arrives. A
 run that raises is reported as failed, with its name and error, and the others go on.
 """
 

@@ -1,4 +1,4 @@
-"""One run as a unit of work: a ``Task`` goes to a backend, ``execute_run`` trains it (one
+"""One run as a unit of work: a ``Job`` goes to a backend, ``execute_run`` trains it (one
 ``multicrane.training.train`` call in the run's directory) and an ``Outcome`` comes back.
 
 ``execute_run`` never raises for a failed run: the error goes into the run's ``error.txt``
@@ -22,7 +22,7 @@ from multicrane.training.run_lock import RunLockedError
 
 
 @dataclass(frozen=True)
-class Task:
+class Job:
     """One run to execute: its name, directory and ``TrainConfig`` keyword arguments."""
 
     name: str
@@ -33,7 +33,7 @@ class Task:
 
 @dataclass(frozen=True)
 class Outcome:
-    """What became of a task: ``done``, ``stopped`` (interrupted, resumable) or ``failed``."""
+    """What became of a job: ``done``, ``stopped`` (interrupted, resumable) or ``failed``."""
 
     name: str
     status: str
@@ -47,25 +47,25 @@ class Outcome:
 Report = Callable[[Outcome], None]
 
 
-def execute_run(task: Task) -> Outcome:
+def execute_run(job: Job) -> Outcome:
     """Train one run (resuming what its directory holds); never raises for a failed run."""
     start = time.perf_counter()
-    run_dir = Path(task.run_dir)
-    if task.return_result:
-        run_dir = _writable_run_dir(task)
+    run_dir = Path(job.run_dir)
+    if job.return_result:
+        run_dir = _writable_run_dir(job)
 
     def log(message: str) -> None:
-        print(f"[{task.name}] {message}", flush=True)
+        print(f"[{job.name}] {message}", flush=True)
 
     try:
         from multicrane.training import TrainConfig, train
 
-        result = train(TrainConfig(**task.train), run_dir, progress_bar=False, log=log)
+        result = train(TrainConfig(**job.train), run_dir, progress_bar=False, log=log)
     except RunLockedError as exc:  # another live process trains it: leave its files alone
-        return Outcome(task.name, "failed", time.perf_counter() - start, error=str(exc))
+        return Outcome(job.name, "failed", time.perf_counter() - start, error=str(exc))
     except KeyboardInterrupt:
         return Outcome(
-            task.name,
+            job.name,
             "stopped",
             time.perf_counter() - start,
             detail="stopped at once: resumes from its last checkpoint, if any",
@@ -78,7 +78,7 @@ def execute_run(task: Task) -> Outcome:
         except OSError:
             pass
         return Outcome(
-            task.name,
+            job.name,
             "failed",
             time.perf_counter() - start,
             error=f"{type(exc).__name__}: {exc}",
@@ -86,20 +86,20 @@ def execute_run(task: Task) -> Outcome:
         )
     seconds = time.perf_counter() - start
     if result is None:
-        return Outcome(task.name, "stopped", seconds, detail="stopped with a checkpoint")
+        return Outcome(job.name, "stopped", seconds, detail="stopped with a checkpoint")
     return Outcome(
-        task.name,
+        job.name,
         "done",
         seconds,
         final=result.get("final"),
-        result=result if task.return_result else None,
+        result=result if job.return_result else None,
     )
 
 
-def _writable_run_dir(task: Task) -> Path:
-    """The task's directory, or a directory on this node's temporary filesystem when the
+def _writable_run_dir(job: Job) -> Path:
+    """The job's directory, or a directory on this node's temporary filesystem when the
     driver's path cannot be created here (a Ray worker without the shared filesystem)."""
-    run_dir = Path(task.run_dir)
+    run_dir = Path(job.run_dir)
     try:
         run_dir.mkdir(parents=True, exist_ok=True)
         probe = run_dir / f".write-test-{os.getpid()}"
@@ -107,7 +107,7 @@ def _writable_run_dir(task: Task) -> Path:
         probe.unlink()
         return run_dir
     except OSError:
-        key = hashlib.sha1(task.run_dir.encode()).hexdigest()[:12]  # one per driver path
+        key = hashlib.sha1(job.run_dir.encode()).hexdigest()[:12]  # one per driver path
         local = Path(tempfile.gettempdir()) / "multicrane-bench" / key
         local.mkdir(parents=True, exist_ok=True)
         return local

@@ -34,7 +34,7 @@ from multiprocessing.connection import wait
 from typing import Any
 
 from multicrane.benchmark import interrupts
-from multicrane.benchmark.jobs import Outcome, Report, Task, execute_run
+from multicrane.benchmark.jobs import Job, Outcome, Report, execute_run
 
 
 def _watch_parent(parent: int, grace: float, poll: float = 0.5) -> None:
@@ -49,8 +49,8 @@ def _watch_parent(parent: int, grace: float, poll: float = 0.5) -> None:
     os._exit(3)
 
 
-def _serve(conn, runner: Callable[[Task], Outcome], orphan_grace: float = 60.0) -> None:
-    """A worker: run the tasks the driver sends until it sends None (or the driver dies)."""
+def _serve(conn, runner: Callable[[Job], Outcome], orphan_grace: float = 60.0) -> None:
+    """A worker: run the jobs the driver sends until it sends None (or the driver dies)."""
     os.setpgrp()  # Ctrl-C in the terminal goes to the driver only; it forwards signals
     parent = os.getppid()
     threading.Thread(
@@ -64,17 +64,17 @@ def _serve(conn, runner: Callable[[Task], Outcome], orphan_grace: float = 60.0) 
         return
     while True:
         try:
-            task = conn.recv()
+            job = conn.recv()
         except (EOFError, OSError, KeyboardInterrupt):
             return
-        if task is None:
+        if job is None:
             return
         try:
-            outcome = runner(task)
+            outcome = runner(job)
         except KeyboardInterrupt:
-            outcome = Outcome(task.name, "stopped", detail="stopped at once")
+            outcome = Outcome(job.name, "stopped", detail="stopped at once")
         except BaseException as exc:  # report it; the driver decides what comes next
-            outcome = Outcome(task.name, "failed", error=f"{type(exc).__name__}: {exc}")
+            outcome = Outcome(job.name, "failed", error=f"{type(exc).__name__}: {exc}")
         try:
             conn.send(outcome)
         except (OSError, BrokenPipeError):
@@ -88,7 +88,7 @@ READY = "ready"  # a worker's first message
 class _Worker:
     process: Any
     conn: Any
-    task: Task | None = None
+    job: Job | None = None
     started: float = 0.0
     ready: bool = False  # its signal handlers are set: it may be signalled
 
@@ -102,7 +102,7 @@ class LocalBackend:
     def __init__(
         self,
         workers: int | None = None,
-        runner: Callable[[Task], Outcome] = execute_run,
+        runner: Callable[[Job], Outcome] = execute_run,
         log: Callable[[str], None] = print,
         resend_seconds: float = 1.0,
         orphan_grace: float = 60.0,
@@ -114,16 +114,16 @@ class LocalBackend:
         self.orphan_grace = orphan_grace
         self._interrupts = 0  # signals received
         self._handled = 0  # signals acted upon
-        self._queue: deque[Task] = deque()
+        self._queue: deque[Job] = deque()
         self._pool: list[_Worker] = []
         self._ctx = multiprocessing.get_context("spawn")
 
     def _on_signal(self, signum, frame) -> None:
         self._interrupts += 1
 
-    def run(self, tasks: Sequence[Task], report: Report) -> bool:
-        """Run every task; True when interrupted (unstarted tasks are left for next time)."""
-        self._queue = deque(tasks)
+    def run(self, jobs: Sequence[Job], report: Report) -> bool:
+        """Run every job; True when interrupted (unstarted jobs are left for next time)."""
+        self._queue = deque(jobs)
         self._pool = []
         self._interrupts = self._handled = 0
         if not self._queue:
@@ -172,22 +172,22 @@ class LocalBackend:
         return worker
 
     def _dispatch(self, w: _Worker) -> None:
-        """The next task to an idle worker, or None (the worker exits) when there is none
+        """The next job to an idle worker, or None (the worker exits) when there is none
         or the sweep is stopping."""
         if self._queue and not self._handled:
-            w.task = self._queue.popleft()
+            w.job = self._queue.popleft()
             w.started = time.perf_counter()
-            w.conn.send(w.task)
+            w.conn.send(w.job)
         else:
-            w.task = None
+            w.job = None
             _send_quietly(w.conn, None)
 
     def _signal_busy(self, sig: int) -> None:
-        """Signal the workers that run a task; only ready ones, except to kill (before its
+        """Signal the workers that run a job; only ready ones, except to kill (before its
         handlers are set, a SIGTERM would kill a worker)."""
         for w in self._pool:
             ready = w.ready or sig == signal.SIGKILL
-            if w.task is not None and ready and w.process.is_alive():
+            if w.job is not None and ready and w.process.is_alive():
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(w.process.pid, sig)
 
@@ -199,7 +199,7 @@ class LocalBackend:
                 "(Ctrl-C again: stop at once, back to the last checkpoint)"
             )
             for w in self._pool:
-                if w.task is None:
+                if w.job is None:
                     _send_quietly(w.conn, None)
         elif self._handled == 2:
             self.log("stopping at once")
@@ -220,7 +220,7 @@ class LocalBackend:
         except (EOFError, OSError):
             outcome = None
         if outcome is not None:
-            w.task = None
+            w.job = None
             report(outcome)
             if w.process.is_alive():
                 self._dispatch(w)
@@ -230,23 +230,23 @@ class LocalBackend:
         w.process.join()
         self._pool.remove(w)
         w.conn.close()
-        if w.task is None:
+        if w.job is None:
             return
         code = w.process.exitcode
         why = f"signal {-code}" if code is not None and code < 0 else f"exit code {code}"
         seconds = time.perf_counter() - w.started
         if self._handled:  # killed, or hit by the Ctrl-C while starting: resumable
-            report(Outcome(w.task.name, "stopped", seconds, detail=f"worker ended ({why})"))
+            report(Outcome(w.job.name, "stopped", seconds, detail=f"worker ended ({why})"))
         else:
             report(
                 Outcome(
-                    w.task.name,
+                    w.job.name,
                     "failed",
                     seconds,
                     error=f"the worker process died ({why}) during this run",
                 )
             )
-        w.task = None
+        w.job = None
         if self._queue and not self._handled:
             self._dispatch(self._start_worker())
 

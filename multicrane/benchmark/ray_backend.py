@@ -1,13 +1,13 @@
 """The Ray backend (``pip install 'multicrane[ray]'``): each run a Ray task with
 ``num_cpus=1``, on a local Ray instance or a cluster.
 
-The task trains in the run's directory when the worker can create it (the same machine, or
+The job trains in the run's directory when the worker can create it (the same machine, or
 a shared filesystem) and otherwise in a temporary directory on its node; either way it
 returns the result, which the driver writes as the run's ``result.json`` if it is not there
 yet. So results always land in the driver's output directory, but checkpoints of unfinished
 runs stay on the node that wrote them: for resume across interruptions on a cluster, put the
-output directory on a shared filesystem. Ctrl-C cancels the tasks: Ray delivers the
-cancellation to a running task as SIGINT, so its run stops at the next update with a
+output directory on a shared filesystem. Ctrl-C cancels the jobs: Ray delivers the
+cancellation to a running job as SIGINT, so its run stops at the next update with a
 checkpoint, as locally; a second Ctrl-C force-cancels (the worker is killed and the run goes
 back to its last checkpoint). ray is imported only when a sweep runs.
 """
@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from multicrane.benchmark import interrupts
-from multicrane.benchmark.jobs import Outcome, Report, Task, execute_run
+from multicrane.benchmark.jobs import Job, Outcome, Report, execute_run
 
 
 def import_ray():
@@ -48,7 +48,7 @@ class RayBackend:
         self,
         address: str | None = None,
         num_cpus: int | None = None,
-        runner: Callable[[Task], Outcome] = execute_run,
+        runner: Callable[[Job], Outcome] = execute_run,
         log: Callable[[str], None] = print,
     ):
         self.address = address
@@ -58,9 +58,9 @@ class RayBackend:
         self.workers = num_cpus or os.cpu_count() or 1
         self._interrupts = 0
 
-    def run(self, tasks: Sequence[Task], report: Report) -> bool:
-        """Run every task as a Ray task; True when interrupted."""
-        if not tasks:
+    def run(self, jobs: Sequence[Job], report: Report) -> bool:
+        """Run every job as a Ray task; True when interrupted."""
+        if not jobs:
             return False
         ray = import_ray()
         own = not ray.is_initialized()
@@ -77,7 +77,7 @@ class RayBackend:
                 ray.init(address="local", num_cpus=self.num_cpus, **options)
         self.workers = int(ray.cluster_resources().get("CPU", self.workers))
         remote = ray.remote(num_cpus=1, max_retries=0)(self.runner)
-        pending = {remote.remote(task): task for task in tasks}
+        pending = {remote.remote(job): job for job in jobs}
         self._interrupts = handled = 0
         previous = interrupts.install(self._on_signal)
         try:
@@ -93,8 +93,8 @@ class RayBackend:
                         ray.cancel(ref, force=force)
                 ready, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
                 for ref in ready:
-                    task = pending.pop(ref)
-                    report(self._outcome(ray, ref, task))
+                    job = pending.pop(ref)
+                    report(self._outcome(ray, ref, job))
         finally:
             interrupts.restore(previous)
             if own:
@@ -105,13 +105,13 @@ class RayBackend:
         self._interrupts += 1
 
     @staticmethod
-    def _outcome(ray, ref, task: Task) -> Outcome:
+    def _outcome(ray, ref, job: Job) -> Outcome:
         try:
             return ray.get(ref)
         except ray.exceptions.TaskCancelledError:
-            return Outcome(task.name, "stopped", detail="cancelled")
+            return Outcome(job.name, "stopped", detail="cancelled")
         except ray.exceptions.RayError as exc:
             first = str(exc).strip().splitlines()
             return Outcome(
-                task.name, "failed", error=f"{type(exc).__name__}: {first[0] if first else ''}"
+                job.name, "failed", error=f"{type(exc).__name__}: {first[0] if first else ''}"
             )

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from multicrane.benchmark.estimate import estimate_wall, format_duration, longest_first
-from multicrane.benchmark.jobs import Task
+from multicrane.benchmark.jobs import Job
 from multicrane.benchmark.manifest import sweep_lock
 from multicrane.benchmark.profiles import Sweep, SweepError
 from multicrane.benchmark.runstate import (
@@ -106,8 +106,8 @@ def _run_sweep(
         f"{backend.name} worker{'s' if backend.workers != 1 else ''}"
     )
     by_name = {spec.name: spec for spec in todo}
-    tasks = [
-        Task(spec.name, str(spec.dir(sweep.out).resolve()), spec.train, backend.returns_results)
+    jobs = [
+        Job(spec.name, str(spec.dir(sweep.out).resolve()), spec.train, backend.returns_results)
         for spec in todo
     ]
     outcomes: list = []
@@ -126,7 +126,7 @@ def _run_sweep(
         finished = done_before + sum(o.status == "done" for o in outcomes)
         log(f"[{finished}/{len(specs)} done, {clock}] {describe_outcome(outcome, sweep)}")
 
-    interrupted = backend.run(tasks, on_outcome) if tasks else False
+    interrupted = backend.run(jobs, on_outcome) if jobs else False
     return SweepRun(
         len(specs),
         done_before,

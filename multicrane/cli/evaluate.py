@@ -38,6 +38,10 @@ means);
 --events none|low|high plays the multi-agent mode with site events (docs/uncertainty.md);
 without it, the scenario's own [events] table, or the level the run directories were
 trained with (multicrane train --events).
+--plot FILE.png draws every episode's makespan (return in paper mode, beside the exact
+planner's) per policy, with the mean and its 95 % interval, one panel per site, and the
+learning curves of the run directories against training wall time (matplotlib: the 'bench'
+extra). --json keeps the episodes (and each run directory's path, as "run").
 """
 
 
@@ -49,6 +53,8 @@ def register(sub) -> None:
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--seed", type=int, default=None, help="first reset seed")
     p.add_argument("--json", type=Path, help="also write the results here")
+    p.add_argument("--plot", type=Path, metavar="FILE.png",
+                   help="also draw the episodes and the runs' learning curves here")  # fmt: skip
     p.add_argument("--workers", type=int, default=1,
                    help="processes for a scenario set's (policy, site) pairs (one torch "
                    "thread each; same results as 1)")  # fmt: skip
@@ -80,8 +86,18 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
         progress_ = counting(advance) if advance else None
         episodes, summary = evaluate(env, make, seeds, progress_, optimal=best)
         summary["seconds"] = round(time.perf_counter() - start, 3)
-        rows.append({"policy": make.label, "summary": summary, "episodes": episodes})
+        for episode, optimal in zip(episodes, best or [], strict=False):
+            episode["optimal_return"] = optimal  # the exact planner's, on the same seed
+        rows.append(_row(make, summary, episodes))
     return rows
+
+
+def _row(make, summary: dict, episodes: list[dict]) -> dict:
+    """One policy's row: its label, summary, episodes and, for a trained model, its path."""
+    row = {"policy": make.label, "summary": summary, "episodes": episodes}
+    if make.model is not None:
+        row["run"] = make.name
+    return row
 
 
 def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], advance,
@@ -102,7 +118,7 @@ def _evaluate_set(args: argparse.Namespace, factories: list, seeds: list[int], a
         summary = summarise(pooled)
         summary["seconds"] = round(seconds[p], 3)  # summed over its sites
         summary["sites"] = n_sites
-        rows.append({"policy": make.label, "summary": summary, "episodes": pooled})
+        rows.append(_row(make, summary, pooled))
     return rows
 
 
@@ -221,6 +237,10 @@ def run(args: argparse.Namespace) -> int:
     if args.workers > 1 and not (args.scenario and is_set_ref(args.scenario)):
         return error("--workers plays the sites of a scenario set in parallel: give --scenario "
                      "set:NAME (one scenario's episodes are played in one process)")  # fmt: skip
+    if args.plot is not None:
+        from multicrane.reports.comparison_plot import require_matplotlib
+
+        require_matplotlib()  # before the episodes: a missing extra is said at once
     total = args.episodes * len(args.policy)
     try:
         with progress.bar(total, "evaluate") as advance:
@@ -239,4 +259,18 @@ def run(args: argparse.Namespace) -> int:
         from multicrane.files import write_atomic
 
         write_atomic(args.json, json.dumps(rows, indent=1, default=str) + "\n")
+    if args.plot is not None:
+        print(f"plot: {plot(rows, paper, args.plot, where)}")
     return 0
+
+
+def plot(rows: list[dict], paper: bool, path: Path, title: str) -> Path:
+    """The episodes per policy and the learning curves of the run directories, as a PNG."""
+    from multicrane.reports.comparison_data import curve_panel, evaluate_panels
+    from multicrane.reports.comparison_plot import write_figure
+
+    panels: list = evaluate_panels(rows, paper)
+    runs = {row["policy"]: [row["run"]] for row in rows if "run" in row}
+    if runs:
+        panels.append(curve_panel(runs, paper))
+    return write_figure(panels, path, title)

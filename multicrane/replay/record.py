@@ -252,15 +252,15 @@ def record_episode(
             listener.on_step(env, joint, reward, events)
 
     m = run_episode(env, policy, int(seed), on_reset=on_reset, on_step=on_step)
-    task_mode = env.mode
-    if task_mode.task_level:  # keep the physical steps: they re-simulate in motion mode
+    mode = env.mode
+    if mode.task_level:  # keep the physical steps: they re-simulate in motion mode
         rec.decisions = rec.actions
-        rec.actions = [list(joint) for joint in task_mode.trace]
+        rec.actions = [list(joint) for joint in mode.trace]
         rec.events = [
             [(e.type.name, int(e.crane), int(e.component)) for e in step]
-            for step in (sorted(s, key=lambda e: e.crane) for s in task_mode.trace_events)
+            for step in (sorted(s, key=lambda e: e.crane) for s in mode.trace_events)
         ]
-        m = dict(m, **{"return": float(sum(task_mode.trace_rewards))})
+        m = dict(m, **{"return": float(sum(mode.trace_rewards))})
     if env.sim.schedule is not None:
         rec.schedule = env.sim.schedule.to_json()
     rec.metrics = {

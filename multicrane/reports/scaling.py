@@ -33,6 +33,7 @@ import numpy as np
 
 from multicrane.episodes.random_actions import random_legal_policy
 from multicrane.episodes.rollout import Stopwatch, play
+from multicrane.tables import markdown_table
 
 # components -> (bays_x, bays_y, storeys) of a hall with span 4 and columns 4 cells high.
 SHAPES: dict[int, tuple[int, int, int]] = {
@@ -140,17 +141,13 @@ def fit_growth(rows: list[dict[str, Any]], key: str) -> tuple[float, float]:
 
 def table(rows: list[dict[str, Any]]) -> str:
     """The rows as a markdown table, then one line per cost with its fitted exponents."""
-    head = (
-        "| components | cranes | cells | load s | reset ms | step ms | step ms/crane "
-        "| plan ms | plan max ms |"
-    )
-    lines = [head, "|" + "---:|" * 9]
-    for r in rows:
-        lines.append(
-            f"| {r['components']} | {r['cranes']} | {r['cells']} | {r['load_s']:.3f} | "
-            f"{1e3 * r['reset_s']:.1f} | {r['step_ms']:.2f} | {r['step_ms_per_crane']:.3f} | "
-            f"{r.get('plan_ms', float('nan')):.2f} | {r.get('plan_ms_max', float('nan')):.1f} |"
-        )
+    head = ["components", "cranes", "cells", "load s", "reset ms", "step ms", "step ms/crane",
+            "plan ms", "plan max ms"]  # fmt: skip
+    lines = markdown_table(head, ([
+        f"{r['components']}", f"{r['cranes']}", f"{r['cells']}", f"{r['load_s']:.3f}",
+        f"{1e3 * r['reset_s']:.1f}", f"{r['step_ms']:.2f}", f"{r['step_ms_per_crane']:.3f}",
+        f"{r.get('plan_ms', float('nan')):.2f}", f"{r.get('plan_ms_max', float('nan')):.1f}",
+    ] for r in rows), align="")  # fmt: skip
     lines.append("")
     for key in COSTS:
         if all(key in r for r in rows):

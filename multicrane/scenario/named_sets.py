@@ -48,7 +48,6 @@ HELD_OUT: dict[str, SetRule] = {
     "test-small": SetRule(range(1_000_000, 1_000_050), (1, 30), (2, 4)),
     "test-large": SetRule(range(2_000_000, 2_000_050), (60, 200), (4, 16), spread=True),
 }
-SET_NAMES = ("train", *HELD_OUT)
 
 
 @dataclass(frozen=True)

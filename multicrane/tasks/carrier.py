@@ -94,20 +94,6 @@ class Carrier:
             or crane in self._claims
         )
 
-    def task_of(self, crane: int) -> tuple[int, int] | None:
-        """The crane's (component, target), or None when it carries nothing."""
-        st = self.sim.state
-        comp = st.held[crane]
-        if comp == NOBODY:
-            comp = self._claims.get(crane, NOBODY)
-            if comp == NOBODY:
-                return None
-        plan = self.plans.get(comp)
-        if plan is not None:
-            return comp, plan.target
-        filled = int(st.filled[comp])
-        return comp, filled if filled != NOBODY else -1
-
     def time_left(self, crane: int) -> int:
         """Estimated steps until the crane is idle: the path left plus the assembly."""
         sim = self.sim

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from multicrane.benchmark import aggregate, page
-from multicrane.benchmark.jobs import Outcome, Task
+from multicrane.benchmark.jobs import Job, Outcome
 from multicrane.benchmark.local import LocalBackend
 from multicrane.benchmark.manifest import sweep_lock
 from multicrane.benchmark.profiles import (
@@ -92,7 +92,7 @@ def fake_result(train: dict, ret: float = -5.0, success: float = 1.0, optimal: f
     }
 
 
-def fake_train(task: Task) -> Outcome:
+def fake_train(task: Job) -> Outcome:
     """Write what a finished run leaves: config.json, then result.json."""
     run_dir = Path(task.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -102,14 +102,14 @@ def fake_train(task: Task) -> Outcome:
     return Outcome(task.name, "done", final=result["final"])
 
 
-def crash_on_seed1(task: Task) -> Outcome:
+def crash_on_seed1(task: Job) -> Outcome:
     """A runner whose process dies hard on seed 1 (for the local pool, which spawns)."""
     if task.train["seed"] == 1:
         os._exit(3)
     return fake_train(task)
 
 
-def wait_for_sigterm(task: Task) -> Outcome:
+def wait_for_sigterm(task: Job) -> Outcome:
     """A runner that behaves like ``train`` on SIGTERM: stops with a checkpoint."""
     stop = []
     signal.signal(signal.SIGTERM, lambda *_: stop.append(True))
@@ -133,7 +133,7 @@ class Counting:
         self.calls: dict[str, int] = {}
         self.stop_after = stop_after
 
-    def __call__(self, task: Task) -> Outcome:
+    def __call__(self, task: Job) -> Outcome:
         self.calls[task.name] = self.calls.get(task.name, 0) + 1
         if self.stop_after is not None and sum(self.calls.values()) > self.stop_after:
             run_dir = Path(task.run_dir)
@@ -404,7 +404,7 @@ def test_a_sweep_runs_under_one_driver_at_a_time(tmp_path):
 def test_failed_run_is_reported_and_the_sweep_goes_on(tmp_path):
     sweep = small_sweep(tmp_path, configs=["E1S1"], algos=["a2c"], seeds=[0, 1, 2])
 
-    def runner(task: Task) -> Outcome:
+    def runner(task: Job) -> Outcome:
         if task.train["seed"] == 1:
             return Outcome(task.name, "failed", error="ValueError: boom")
         return fake_train(task)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from multicrane.benchmark.jobs import Task, execute_run
+from multicrane.benchmark.jobs import Job, execute_run
 from multicrane.training.run_lock import LOCK, RunLock, RunLockedError, owner
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -90,7 +90,7 @@ def test_a_run_held_by_a_live_process_is_not_trained_twice(tmp_path):
     try:
         assert holder.stdout.readline().strip() == "locked"
         train = dict(scenario="E1S1", algo="ppo", total_steps=64, eval_episodes=1)
-        outcome = execute_run(Task("r", str(run_dir), train))
+        outcome = execute_run(Job("r", str(run_dir), train))
         assert outcome.status == "failed"
         assert f"in use by process {holder.pid}" in outcome.error
         assert sorted(p.name for p in run_dir.iterdir()) == [LOCK]  # nothing written
@@ -115,10 +115,10 @@ import sys
 sys.path.insert(0, sys.argv[1])
 from fake_runner import slow
 from multicrane.benchmark.local import LocalBackend
-from multicrane.benchmark.jobs import Task
+from multicrane.benchmark.jobs import Job
 
 backend = LocalBackend(workers=1, runner=slow, orphan_grace=1.0)
-backend.run([Task("r", sys.argv[2], {})], print)
+backend.run([Job("r", sys.argv[2], {})], print)
 """
 
 

@@ -13,11 +13,12 @@ from conftest import random_masked_actions
 import multicrane
 from multicrane.core.codes import EventType
 from multicrane.envs.infos import TASK_EVENTS, event_counts
+from multicrane.episodes.random_actions import random_legal_action
 
 
 def _masked(env, rng):
     return {
-        a: int(rng.choice(np.flatnonzero(m))) for a, m in env.action_masks().items()
+        a: random_legal_action(m, rng) for a, m in env.action_masks().items()
     }
 
 

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from multicrane.cli import main
+from multicrane.episodes.random_actions import random_legal_actions
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -40,7 +41,7 @@ def one_thread():
 
 
 def legal(obs, rng):
-    return {a: int(rng.choice(np.flatnonzero(o["action_mask"]))) for a, o in obs.items()}
+    return random_legal_actions({a: o["action_mask"] for a, o in obs.items()}, rng)
 
 
 def test_adapter_gives_rllib_keys_and_one_episode_end():

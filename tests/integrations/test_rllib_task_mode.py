@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import multicrane
+from multicrane.episodes.random_actions import random_legal_actions
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -41,7 +42,7 @@ def test_adapter_in_task_mode_has_the_task_action_space_and_ends_once():
         np.testing.assert_array_equal(o["action_mask"], plain_obs[agent]["action_mask"])
     rng = np.random.default_rng(0)
     for _ in range(plain.step_limit):
-        actions = {a: int(rng.choice(np.flatnonzero(o["action_mask"]))) for a, o in obs.items()}
+        actions = random_legal_actions({a: o["action_mask"] for a, o in obs.items()}, rng)
         obs, _, terms, truncs, _ = env.step(actions)
         if terms["__all__"] or truncs["__all__"]:
             break

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 import multicrane
 import policies
+from multicrane.episodes.random_actions import random_legal_action
 from multicrane.scenario.generator import generate
 
 
@@ -56,7 +57,7 @@ def test_incremental_readiness_equals_full_recompute(scenario, cranes, auto):
             actions = plan(obs)
         else:
             actions = {
-                a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents
+                a: random_legal_action(obs[a]["action_mask"], rng) for a in env.agents
             }
         obs, *_ = env.step(actions)
     assert changes > 0  # readiness did change along the way
@@ -79,7 +80,7 @@ def test_joint_observation_rows_equal_per_crane_observe_and_stay_fresh(scenario,
             env.state(), np.concatenate([obs[a]["observation"] for a in env.possible_agents])
         )
         actions = {
-            a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents
+            a: random_legal_action(obs[a]["action_mask"], rng) for a in env.agents
         }
         obs, *_ = env.step(actions)
     for handed, copy in kept:  # later steps never wrote into an observation handed out

@@ -11,6 +11,7 @@ pytest.importorskip("stable_baselines3")
 
 import multicrane  # noqa: E402
 from multicrane.core.codes import Status  # noqa: E402
+from multicrane.episodes.random_actions import random_legal_action
 from multicrane.sim.simulator import NOBODY  # noqa: E402
 from multicrane.training.shaping import DistancePotential  # noqa: E402
 from multicrane.training.vec_env import CraneVecEnv  # noqa: E402
@@ -141,7 +142,7 @@ def test_incremental_potential_equals_the_formula_at_every_step(scenario, cranes
             actions = plan(obs)
         else:
             actions = {
-                a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents
+                a: random_legal_action(obs[a]["action_mask"], rng) for a in env.agents
             }
         obs, *_ = env.step(actions)
     assert len(values) > 10

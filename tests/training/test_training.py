@@ -34,6 +34,7 @@ import multicrane  # noqa: E402
 import multicrane.training.trainer as trainer  # noqa: E402
 from multicrane.envs.crane_env import MultiCraneEnv  # noqa: E402
 from multicrane.envs.paper_env import PaperAssemblyEnv  # noqa: E402
+from multicrane.episodes.random_actions import random_legal_action
 from multicrane.training import ConfigError, CraneVecEnv, TrainConfig, train  # noqa: E402
 from multicrane.training.algorithms import (  # noqa: E402
     MULTI_ALGORITHMS,
@@ -613,7 +614,7 @@ def _e1s1(max_steps: int | None = None):
 
 
 def _legal_actions(masks: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    return np.array([rng.choice(np.flatnonzero(row)) for row in masks])
+    return np.array([random_legal_action(row, rng) for row in masks])
 
 
 @pytest.mark.parametrize("scenario", ["e1s1", "hall-4c"])
