@@ -15,6 +15,7 @@ from pathlib import Path
 from multicrane.core.codes import Event, EventType, Kind, Move, Status
 from multicrane.core.schema import Scenario, ScenarioError
 from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.envs.joint_env import JOINT_ENV_ID
 from multicrane.envs.paper_env import PAPER_CONFIGS, PaperAssemblyEnv, paper_env_id
 from multicrane.scenario.catalog import scenario_names
 from multicrane.scenario.loader import load_scenario
@@ -42,7 +43,8 @@ raw_env = env
 def _register() -> None:
     """Register every shipped scenario with PettingZoo (``pettingzoo.make("parallel",
     "multicrane/e3s2-v0")``, and ``"aec"``) and the 16 paper configurations with Gymnasium
-    (``gymnasium.make("multicrane/PaperAssembly-E1S1-v0")``)."""
+    (``gymnasium.make("multicrane/PaperAssembly-E1S1-v0")``), and every crane of any scenario as
+    one Gymnasium agent (``gymnasium.make("multicrane/Joint-v0", scenario="hall-4c")``)."""
     import gymnasium
     from pettingzoo.env_registry import register
 
@@ -65,6 +67,13 @@ def _register() -> None:
                 order_enforce=False,
                 disable_env_checker=True,
             )
+    if JOINT_ENV_ID not in gymnasium.registry:
+        gymnasium.register(
+            JOINT_ENV_ID,
+            entry_point="multicrane.envs.joint_env:JointCraneEnv",
+            order_enforce=False,
+            disable_env_checker=True,
+        )
 
 
 _register()

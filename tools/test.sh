@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The test suite: sets up .venv with the test dependencies, then runs ruff and pytest.
 # Extra arguments go to pytest (e.g. tools/test.sh -k loader).
-MULTICRANE_EXTRAS="train,test,replay,bench,ray,tianshou,torchrl,rllib,ifc"
+MULTICRANE_EXTRAS="train,test,replay,video,bench,ray,tianshou,torchrl,rllib,ifc"
 source "$(dirname "$0")/_venv.sh"
 "$PY" -m ruff check multicrane policies tools tests
 "$PY" -m pytest -q --durations=15 "$@"

@@ -27,6 +27,10 @@ random (--random-seeds episodes, seeded per episode with (seed, 1)), and for the
 configurations (e?s?) with one crane the exact single-agent optimum on the same layouts.
 Metrics: makespan, success rate, blocked moves, crane utilisation and planning time per
 decision. Progress goes to stderr.
+
+--plot FILE.png draws every episode's makespan, one panel per scenario, a cluster per crane
+count: a column per policy (the mean and its 95 % interval beside the dots) and the episodes'
+lower bounds (matplotlib: the 'bench' extra); with --markdown the page shows it.
 """
 
 POLICIES = ("greedy", "prioritized", "random")
@@ -50,6 +54,8 @@ def register(sub) -> None:
                    help="skip task-mode prioritized on the large scenarios")  # fmt: skip
     p.add_argument("--markdown", action="store_true", help="print a whole markdown page")
     p.add_argument("--output", type=Path, help="write the report here instead of stdout")
+    p.add_argument("--plot", type=Path, metavar="FILE.png",
+                   help="also draw every episode's makespan per policy and the bounds")  # fmt: skip
     p.set_defaults(func=run)
 
 
@@ -81,6 +87,10 @@ def run(args: argparse.Namespace) -> int:
         return error(f"unknown scenario(s): {', '.join(unknown)}")
     if args.seeds < 1:
         return error("--seeds must be at least 1")
+    if args.plot is not None:
+        from multicrane.reports.comparison_plot import require_matplotlib
+
+        require_matplotlib()  # before the episodes: a missing extra is said at once
     setup = Setup(scenarios, args.cranes, args.policies, args.seeds, args.random_seeds,
                   args.seed, args.optimal, args.bound, args.bound_time_limit,
                   args.task, sites)  # fmt: skip
@@ -91,8 +101,12 @@ def run(args: argparse.Namespace) -> int:
             setup, makers, policies.factory("optimal", paper=True), advance,
             log=None if quiet else (lambda line: print(line, file=sys.stderr, flush=True)),
         )  # fmt: skip
+    if args.plot is not None:
+        print(f"plot: {plot(results, args.plot)}", file=sys.stderr)
     if args.markdown:
         report = markdown_page(results, command_line(args.argv))
+        if args.plot is not None:
+            report += plot_section(args.plot, args.output)
     else:
         report = text_report(results)
     report += "" if report.endswith("\n") else "\n"
@@ -103,3 +117,22 @@ def run(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(report)
     return 0
+
+
+def plot(results, path: Path) -> Path:
+    """Every episode's makespan per scenario, crane count and policy, and the bounds."""
+    from multicrane.reports.comparison_data import planner_panels
+    from multicrane.reports.comparison_plot import write_figure
+
+    return write_figure(planner_panels(results), path)
+
+
+def plot_section(plot: Path, page: Path | None) -> str:
+    """The page's section that shows the plot (its path relative to the page's folder)."""
+    where = Path(os.path.relpath(plot, page.parent)) if page is not None else plot
+    return (
+        "\n## Every episode\n\nEach dot one episode's makespan (jittered sideways), the black "
+        "bar the mean with its 95 % interval, a black dash each episode's lower bound; "
+        f"in red *done/episodes* atop a column that did not finish every episode.\n\n"
+        f"![makespan of every episode]({where.as_posix()})\n"
+    )

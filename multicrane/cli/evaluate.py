@@ -86,8 +86,8 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
         progress_ = counting(advance) if advance else None
         episodes, summary = evaluate(env, make, seeds, progress_, optimal=best)
         summary["seconds"] = round(time.perf_counter() - start, 3)
-        for episode, optimal in zip(episodes, best or [], strict=False):
-            episode["optimal_return"] = optimal  # the exact planner's, on the same seed
+        for episode, optimal in zip(episodes, best, strict=True) if paper else ():
+            episode["optimal_return"] = optimal  # the exact planner's return, same seed
         rows.append(_row(make, summary, episodes))
     return rows
 
@@ -266,11 +266,11 @@ def run(args: argparse.Namespace) -> int:
 
 def plot(rows: list[dict], paper: bool, path: Path, title: str) -> Path:
     """The episodes per policy and the learning curves of the run directories, as a PNG."""
-    from multicrane.reports.comparison_data import curve_panel, evaluate_panels
+    from multicrane.reports.comparison_data import curve_panel, evaluate_panels, run_curves
     from multicrane.reports.comparison_plot import write_figure
 
     panels: list = evaluate_panels(rows, paper)
-    runs = {row["policy"]: [row["run"]] for row in rows if "run" in row}
-    if runs:
-        panels.append(curve_panel(runs, paper))
+    curves = run_curves({row["policy"]: [row["run"]] for row in rows if "run" in row})
+    if curves:
+        panels.append(curve_panel(curves, paper))
     return write_figure(panels, path, title)

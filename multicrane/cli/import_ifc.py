@@ -9,7 +9,8 @@ from pathlib import Path
 from multicrane.cli.common import formatter
 
 DESCRIPTION = """Import an IFC building model as a scenario (needs the ifc extra:
-pip install 'multicrane[ifc]').
+pip install 'multicrane[ifc]'). IFC2X3, IFC4 and IFC4X3 files are read, in any length
+unit.
 
     multicrane import-ifc frame.ifc -o site.toml
     multicrane import-ifc frame.ifc -o site.toml --cell 0.5 --yard two --cranes 3
@@ -17,12 +18,16 @@ pip install 'multicrane[ifc]').
 
 Columns (IfcColumn) and beams (IfcBeam, and straight IfcMember) become components, snapped
 to cells of --cell metres: columns stand on foundations at their bases (or on the column
-below), beams rest on the columns they touch. Slabs, walls and plates (IfcSlab, IfcWall,
-IfcPlate) become obstacles (--panels obstacles, the default), are skipped (--panels skip),
-or become panel components (--panels components; the loader reads panels once issue 21 is
-in). Every element left out is reported with its type, GlobalId, name and reason, on the
-terminal and as comments in the file. The file is loaded with the strict loader (solvability
-included) before it is written. Without -o the file goes to standard output.
+below), beams rest on the columns they touch, and secondary beams on the beams they frame
+into. By default (--panels components) slabs, walls and plates (IfcSlab, IfcWall, IfcPlate)
+become panel components resting on exactly the beams and walls (a slab) or the slabs and
+beams (a wall) directly under them; a wall on the ground gets a foundation strip. With
+--panels obstacles their cells become obstacles instead, with --panels skip they are left
+out. Every element left out (a slanted brace, a panel with nothing under it, ...) is
+reported with its type, GlobalId, name and reason, on the terminal and as comments in the
+file. The file is loaded with the strict loader (solvability included) before it is
+written. Without -o the file goes to standard output. A model that cannot be imported gets
+one line on standard error and exit status 2.
 """
 
 
@@ -36,7 +41,8 @@ def register(sub) -> None:
                    help="yard strips on the low-y side, both y sides, or all around")
     p.add_argument("--cranes", type=int, default=1, help="cranes (default 1)")
     p.add_argument("--panels", choices=("components", "obstacles", "skip"), default="components",
-                   help="what slabs, walls and plates become (default components)")
+                   help="what slabs, walls and plates become: panel components (the default), "
+                   "obstacles, or nothing")
     p.set_defaults(func=run)
 
 

@@ -14,9 +14,11 @@ from multicrane.cli.common import (
     error,
     formatter,
     make_env,
+    needs_extra,
     run_decisions,
     run_events,
 )
+from multicrane.cli.gantt import lacks_matplotlib
 from multicrane.envs.decision_modes import decision_mode
 
 DESCRIPTION = """Run policies on a scenario and print what they achieve.
@@ -25,6 +27,8 @@ DESCRIPTION = """Run policies on a scenario and print what they achieve.
     multicrane plan frame2-3c --policy prioritized greedy random --episodes 5
     multicrane plan e2s2 --policy greedy --render                # print the final site
     multicrane plan hall-4c --policy prioritized --record ep.json.gz --rrd ep.rrd
+    multicrane plan hall-4c --policy prioritized --gantt ep.html  # or ep.png ('bench' extra)
+    multicrane plan hall-4c --policy prioritized --video ep.mp4   # or ep.gif ('video' extra)
     multicrane plan set:test-small --policy prioritized greedy  # a held-out set: set means
     multicrane plan E2S2 --paper --policy optimal greedy         # single-agent paper mode
     multicrane plan hall-4c --policy replanning static-plan --events high --episodes 5
@@ -38,9 +42,13 @@ same for every policy. Prints, per policy: mean return ± standard error, succes
 makespan (joint steps to finish, finished episodes), steps, and in multi-agent mode crane
 utilisation, blocked moves and planning time per joint step. --record writes the first
 episode as an episode record (.json or .json.gz), --rrd as a rerun replay (the 'replay'
-extra); both need one policy, multi-agent mode. --events none|low|high turns on site
-events (late deliveries, breakdowns, closed zones; docs/uncertainty.md); without it the
-scenario's own [events] table applies, or the level a run directory policy was trained with.
+extra), --gantt as a Gantt chart of the cranes (.html: a page with the chart as inline
+SVG; .png: a picture, the 'bench' extra); these need one policy, multi-agent mode. --video
+writes the first episode's pictures (the rgb_array render, one frame per reset and step,
+--fps per second) as an .mp4 or .gif (the 'video' extra), one policy, either mode.
+--events none|low|high turns on site events (late deliveries, breakdowns, closed zones;
+docs/uncertainty.md); without it the scenario's own [events] table applies, or the level a
+run directory policy was trained with.
 """
 
 
@@ -64,6 +72,10 @@ def register(sub) -> None:
     p.add_argument("--render", action="store_true", help="print the site after the last episode")
     p.add_argument("--record", type=Path, help="write the first episode's record here")
     p.add_argument("--rrd", type=Path, help="write the first episode's 3D replay here (.rrd)")
+    p.add_argument("--gantt", type=Path,
+                   help="write the first episode's Gantt chart here (.html or .png)")
+    p.add_argument("--video", type=Path, help="write the first episode's video here (.mp4, .gif)")
+    p.add_argument("--fps", type=float, default=4.0, help="frames per second of --video")
     add_events_arg(p)
     p.set_defaults(func=run)
 
@@ -96,21 +108,40 @@ def line(label: str, s: dict, multi: bool) -> str:
 
 
 def record(args: argparse.Namespace, env, name: str) -> None:
-    """Run the first episode again, recording it (an episode record and/or a .rrd)."""
+    """Run the first episode again, recording it (an episode record, a .rrd and/or a Gantt
+    chart)."""
     import policies
     from multicrane.replay.record import record_episode
+    from multicrane.replay.timeline import Timeline
 
     policy = policies.make(name, env, seed=args.seed)
+    timeline = Timeline()
     if args.rrd:
         from multicrane.replay import viewer
 
-        rec = viewer.record_and_save(env, policy, args.seed, args.rrd, name)
+        rec = viewer.record_and_save(env, policy, args.seed, args.rrd, name, [timeline])
         print(f"replay: {args.rrd}")
     else:
-        rec = record_episode(env, policy, args.seed, name)
+        rec = record_episode(env, policy, args.seed, name, listeners=[timeline])
     if args.record:
         rec.save(args.record)
         print(f"episode record: {args.record}")
+    if args.gantt:
+        from multicrane.reports.gantt import record_title, write_gantt
+
+        write_gantt(timeline.intervals, args.gantt, env.scenario.ids, record_title(rec))
+        print(f"gantt chart: {args.gantt}")
+
+
+def video(args: argparse.Namespace, env, make) -> None:
+    """Run the first episode again, writing its pictures to ``args.video``."""
+    from multicrane.episodes.rollout import run_episode
+    from multicrane.render.video import EpisodeVideo
+
+    with EpisodeVideo(args.video, fps=args.fps) as frames:
+        run_episode(env, make(env, args.seed), args.seed, on_reset=frames.on_reset,
+                    on_step=frames.on_step)  # fmt: skip
+    print(f"video: {args.video} ({frames.frames} frames)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -123,8 +154,19 @@ def run(args: argparse.Namespace) -> int:
 
     if args.episodes < 1:
         return error("--episodes must be at least 1")
-    if (args.record or args.rrd) and (args.paper or len(args.policy) != 1):
-        return error("--record and --rrd need one policy in multi-agent mode")
+    if (args.record or args.rrd or args.gantt) and (args.paper or len(args.policy) != 1):
+        return error("--record, --rrd and --gantt need one policy in multi-agent mode")
+    if args.gantt and lacks_matplotlib(args.gantt):
+        return needs_extra("plan", "bench")
+    if args.video:
+        from multicrane.render.video import require_video
+
+        if len(args.policy) != 1 or args.fps <= 0:
+            return error("--video needs one policy and a positive --fps")
+        try:
+            require_video(args.video)
+        except ImportError:
+            return needs_extra("plan", "video")
     try:
         if args.paper and args.events is not None:
             return error(f"--events {args.events} is a multi-agent option (not with --paper)")
@@ -136,8 +178,9 @@ def run(args: argparse.Namespace) -> int:
             return error(f"--decisions {args.decisions} is a multi-agent option (not with "
                          "--paper)")
         if is_set_ref(args.scenario) and not args.paper:
-            if args.record or args.rrd or args.render:
-                return error("--record, --rrd and --render take one scenario, not a set")
+            if args.record or args.rrd or args.gantt or args.render or args.video:
+                return error("--record, --rrd, --gantt, --video and --render take one "
+                             "scenario, not a set")
             return run_set(args, makers, header(True), line)
         if args.paper:
             env = make_env(args.scenario)
@@ -155,8 +198,10 @@ def run(args: argparse.Namespace) -> int:
             print(line(make.label, summary, multi))
         if args.render and multi:
             print(env.render())
-        if args.record or args.rrd:
+        if args.record or args.rrd or args.gantt:
             record(args, env, args.policy[0])
+        if args.video:
+            video(args, env, makers[0])
     except (policies.PolicyError, multicrane.ScenarioError, RecordError, ValueError) as exc:
         return error(exc)
     return 0

@@ -27,6 +27,11 @@ final states); it refuses a record whose scenario changed or whose re-simulation
 (status 2, naming each field: recorded vs re-simulated) and a file that cannot be read or
 was changed after it was written (checksum; status 1); bench times an episode with and
 without recording it to a file.
+
+--spawn starts the viewer on PATH, else the one beside the running Python (.venv/bin/rerun).
+With none, no display, or nothing listening at --connect's URL, the command says so in one
+line (status 2); --rrd files work headless (open them later with `rerun FILE.rrd`), and
+`rerun --serve-web` shows a stream in a browser.
 """
 PLAY_STATES = ["paused", "playing", "following"]
 
@@ -83,12 +88,13 @@ def _guarded(command):
 
     def run(args: argparse.Namespace) -> int:
         import multicrane
+        from multicrane.render.viewers import NoViewer
         from multicrane.replay.record import RecordError
         from policies import PolicyError
 
         try:
             return command(args)
-        except (multicrane.ScenarioError, RecordError, PolicyError, ValueError) as exc:
+        except (multicrane.ScenarioError, RecordError, PolicyError, ValueError, NoViewer) as exc:
             return error(exc)
 
     run.__doc__ = command.__doc__
@@ -112,15 +118,11 @@ def _episode(args: argparse.Namespace):
 
 
 def _stream(args: argparse.Namespace, name: str, scenario):
+    """A stream connected to the viewer that ``--spawn`` or ``--connect`` names."""
     from multicrane.replay import viewer
 
     rec = viewer.new_recording(name)
-    blueprint = viewer.blueprint(scenario, args.play_state)
-    if args.spawn:
-        rec.spawn(default_blueprint=blueprint)
-    else:
-        rec.connect_grpc(args.connect or None, default_blueprint=blueprint)
-    return rec
+    return viewer.connect(rec, args.connect or None, args.spawn, scenario, args.play_state)
 
 
 def _summary(record) -> str:

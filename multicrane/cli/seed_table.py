@@ -22,6 +22,13 @@ episode (multicrane bound, CP-SAT) with each row's gap to its mean.
     multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \
         --policy runs/hall-s0 prioritized --json small.json
     multicrane seed-table small.json --sites set:test-small   # bounds of the set's sites
+    multicrane seed-table ev.json --plot table.png
+
+--plot FILE.png draws what the table summarises, one panel per site: every episode's makespan
+per row (a learned row: its training seeds' episodes, each seed's mean as a diamond), the
+row's mean with its 95 % interval, the episodes' bounds; and the learning curves of the run
+directories (those the evaluate --json file names that are still on disk) against training
+wall time (matplotlib: the 'bench' extra).
 """
 
 
@@ -38,6 +45,8 @@ def register(sub) -> None:
                    help="reuse the bounds an earlier --out wrote (OUT.bounds.json)")  # fmt: skip
     p.add_argument("--out", type=Path, default=None,
                    help="write the markdown table, and the bounds as OUT.bounds.json")  # fmt: skip
+    p.add_argument("--plot", type=Path, metavar="FILE.png",
+                   help="also draw the episodes per row and the runs' learning curves")  # fmt: skip
     p.set_defaults(func=run)
 
 
@@ -62,6 +71,10 @@ def run(args: argparse.Namespace) -> int:
     import multicrane
     from multicrane.reports.seed_table import entries, markdown_table
 
+    if args.plot is not None:
+        from multicrane.reports.comparison_plot import require_matplotlib
+
+        require_matplotlib()  # before the bounds: a missing extra is said at once
     try:
         rows = json.loads(args.results.read_text())
         table_entries = entries(rows)
@@ -92,12 +105,8 @@ def run(args: argparse.Namespace) -> int:
             return error(f"{args.results}: cannot bound its episodes: {exc}")
     table = markdown_table(table_entries, args.baseline, bounds)
     first = rows[0]["episodes"]
-    names = sorted({e["scenario"] for e in first})
-    if len(names) == 1:
-        print(f"{names[0]}, {first[0]['n_cranes']} cranes, {len(first)} episodes "
-              f"(reset seeds {first[0]['seed']}..{first[-1]['seed']})")  # fmt: skip
-    else:
-        print(f"{args.sites or 'several scenarios'}: {len(first)} episodes on {len(names)} sites")
+    heading = what_was_played(first, args.sites)
+    print(heading)
     print(table)
     if args.out is not None:
         args.out.write_text(table + "\n")
@@ -107,4 +116,33 @@ def run(args: argparse.Namespace) -> int:
             args.out.with_suffix(".bounds.json").write_text(
                 json.dumps({"seeds": seeds, "episodes": episodes, "bounds": bounds}) + "\n"
             )
+    if args.plot is not None:
+        print(f"plot: {plot(rows, table_entries, bounds, args.plot, heading)}")
     return 0
+
+
+def what_was_played(episodes: list[dict], sites: str | None) -> str:
+    """The table's heading: the scenario, cranes, episodes and seeds (or the set's sites)."""
+    names = sorted({e["scenario"] for e in episodes})
+    if len(names) > 1:
+        return f"{sites or 'several scenarios'}: {len(episodes)} episodes on {len(names)} sites"
+    first, last = episodes[0], episodes[-1]
+    return (f"{names[0]}, {first['n_cranes']} cranes, {len(episodes)} episodes "
+            f"(reset seeds {first['seed']}..{last['seed']})")  # fmt: skip
+
+
+def plot(rows: list[dict], table_entries: list, bounds: list[int] | None, path: Path,
+         title: str) -> Path:  # fmt: skip
+    """The table's episodes per row, and the learning curves of the run directories on disk
+    (one group per learned row: its training seeds), as a PNG."""
+    from multicrane.reports.comparison_data import curve_panel, run_curves, seed_table_panels
+    from multicrane.reports.comparison_plot import write_figure
+
+    scenarios = [e["scenario"] for e in rows[0]["episodes"]]
+    panels: list = seed_table_panels(table_entries, scenarios, bounds)
+    run_of = {row["policy"]: row["run"] for row in rows if "run" in row}
+    runs = {e.name: [run_of[n] for n in e.seeds if n in run_of] for e in table_entries}
+    curves = run_curves({name: paths for name, paths in runs.items() if paths})
+    if curves:
+        panels.append(curve_panel(curves, paper=False))
+    return write_figure(panels, path, title)

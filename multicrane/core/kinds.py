@@ -101,7 +101,7 @@ class KindSpec:
 KINDS: dict[int, KindSpec] = {
     Kind.COLUMN: KindSpec(Kind.COLUMN, "column", VERTICAL_BAR, STACKED, (Kind.COLUMN,),
                           False, False, FRAME_COLORS, ("IfcColumn", "IfcMember")),
-    Kind.BEAM: KindSpec(Kind.BEAM, "beam", HORIZONTAL_BAR, NAMED, (Kind.COLUMN,),
+    Kind.BEAM: KindSpec(Kind.BEAM, "beam", HORIZONTAL_BAR, NAMED, (Kind.COLUMN, Kind.BEAM),
                         True, True, FRAME_COLORS, ("IfcBeam", "IfcMember")),
     Kind.SLAB: KindSpec(Kind.SLAB, "slab", HORIZONTAL_PANEL, UNDER_SOME, (Kind.BEAM, Kind.WALL),
                         True, False, PANEL_COLORS, ("IfcSlab", "IfcWall", "IfcPlate")),

@@ -114,7 +114,8 @@ class MultiCraneEnv(ParallelEnv):
     ``max_steps`` (default: the scenario's ``step_limit``), ``max_cycles`` (None),
     ``render_mode`` (None, ``"ansi"``, ``"rgb_array"``: an isometric picture of the site,
     ``multicrane.render.image``, or ``"human"``: the live rerun viewer of
-    ``multicrane.render.live``, needs the ``replay`` extra), ``decisions`` (``"motion"`` or
+    ``multicrane.render.live``, needs the ``replay`` extra; with no viewer to reach, a one-line
+    warning and nothing shown), ``decisions`` (``"motion"`` or
     ``"task"``), ``reward`` (``"paper"`` or ``"makespan"``), ``reward_mode`` (``"team"`` or
     ``"split"``), ``obs_format`` (``"dict"`` or ``"flat"``), ``info_events`` (False),
     ``info_mask`` (default: True for ``"flat"``, else False), ``task_patience`` (20),

@@ -3,17 +3,19 @@
 Needs the ``ifc`` extra (``pip install 'multicrane[ifc]'``). ``import_ifc(path, cell=1.0,
 yard="one", cranes=1, panels="components")`` reads the model (``multicrane.ifc.read``), snaps
 its columns, beams and panels to cells of ``cell`` metres (``multicrane.ifc.snap``), lays
-the yard out with the generator's rule (``multicrane.scenario.generator_yard``: components lying in
-lanes at ``z = 1`` on one, two or all sides of a construction area one cell larger than the
-building's plan extent), writes the file (``multicrane.ifc.scenario_text``) and loads it with the
-strict loader (every load check, solvability included). The site is as high as the building
-plus its longest column (a standing column can be carried over the finished building), and
-beams are lifted to the top of the site, as in generated scenarios. The list order is
-buildable: by height, columns before the beams and panels at their top.
+the yard out with the generator's rule (``multicrane.scenario.generator_yard``: components
+lying in lanes at ``z = 1`` on one, two or all sides of a construction area one cell larger
+than the building's plan extent), writes the file (``multicrane.ifc.scenario_text``) and loads
+it with the strict loader (every load check, solvability included). The site is as high as
+the building plus its longest column (a standing column can be carried over the finished
+building), and beams are lifted to the top of the site, as in generated scenarios. The list
+order is buildable: columns and beams by height (columns before the beams at their top,
+primary beams before the secondary ones on them), then the panels, lowest first.
 
-Slabs, walls and plates (``panels``): ``"components"`` (panel components ``kind = "slab"`` /
-``"wall"`` given by two opposite corner cells, lying flat in an extra yard strip; a wall on
-the ground gets a foundation strip under it), ``"obstacles"`` (their cells, less any column or
+Slabs, walls and plates (``panels``, ``multicrane.ifc.panels``): ``"components"`` (the
+default: panel components ``kind = "slab"`` / ``"wall"`` given by two opposite corner cells,
+resting on exactly the targets under them, lying flat in an extra yard strip; a wall on the
+ground gets a foundation strip under it), ``"obstacles"`` (their cells, less any column or
 beam target, become obstacle boxes) or ``"skip"`` (listed in the skip report).
 Everything left out is in ``IfcImport.skipped`` with its type, GlobalId, name and reason.
 """
@@ -21,10 +23,10 @@ Everything left out is in ``IfcImport.skipped`` with its type, GlobalId, name an
 from __future__ import annotations
 
 import random
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
-from multicrane.core.kinds import UNDER_ALL, VERTICAL_BAR, kind_named, kind_spec
+from multicrane.core.kinds import VERTICAL_BAR, kind_named, kind_spec
 from multicrane.core.schema import (
     Box,
     Cell,
@@ -33,13 +35,13 @@ from multicrane.core.schema import (
     Scenario,
     ScenarioError,
 )
+from multicrane.ifc.panels import Panels, panel_yard, place_panels, wall_strips
 from multicrane.ifc.read import IfcImportError, Skipped, read_ifc
-from multicrane.ifc.scenario_text import PanelSpec, scenario_text
+from multicrane.ifc.scenario_text import scenario_text
 from multicrane.ifc.snap import Building, Grid, Part, snap
 from multicrane.scenario import generator_yard
 from multicrane.scenario.limits import MAX_SITE_CELLS
 from multicrane.scenario.loader import parse_scenario
-from multicrane.sim import geometry
 
 PANEL_MODES = ("components", "obstacles", "skip")
 YARDS = ("one", "two", "around")
@@ -70,7 +72,7 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
     members = [i for i, p in enumerate(building.parts) if not kind_named(p.kind).panel]
     if not members:
         raise IfcImportError(f"{path}: no column or beam could be placed on the grid")
-    use = _sort_panels(building, members, panels, skipped)
+    use = place_panels(building, members, panels, skipped)
     ids = _ids(building, members + [i for i, _ in use.specs])
     comps, order = _components(building, members, ids)
     height = _height(path, cell, comps, use)
@@ -81,7 +83,7 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
              for k, c in enumerate(comps)]  # fmt: skip
     obstacles = [Box(_move(b.lo, ox, oy), _move(b.hi, ox, oy)) for b in use.obstacles]
     size = (site.size[0], site.size[1], height)
-    placed_panels, size = _panel_yard(building, use.specs, ids, ox, oy, size)
+    placed_panels, size = panel_yard(use.specs, ids, ox, oy, size)
     if size[0] * size[1] * size[2] > MAX_SITE_CELLS:
         raise IfcImportError(f"{path}: the site would have {size[0] * size[1] * size[2]} cells "
                              f"({size[0]} x {size[1]} x {size[2]}) at cell {cell} m; at most "
@@ -90,7 +92,8 @@ def import_ifc(path: str | Path, cell: float = 1.0, yard: str = "one", cranes: i
     scenario = Scenario(
         name=name, description="", source=str(path), sha256="", size=size,
         construction_area=site.area,
-        foundations=_foundations(building, placed_panels, ox, oy),
+        foundations=tuple(dict.fromkeys([(x + ox, y + oy) for x, y in building.foundations]
+                                        + wall_strips(placed_panels))),
         obstacles=tuple(sorted(obstacles, key=lambda b: (b.lo, b.hi))),
         components=tuple(comps), order=tuple(order), cranes=cranes,
         step_limit=max(1000, 150 * n), interchangeable_targets=False, assembly_steps=1,
@@ -133,41 +136,7 @@ def _read_and_snap(path: str | Path, cell: float) -> tuple[str, Building, list[S
     return schema, building, skipped + building.skipped
 
 
-@dataclass
-class _Panels:
-    """What the panels became (``panels`` mode): obstacle boxes or panel components."""
-
-    obstacles: list[Box] = field(default_factory=list)
-    obstacle_parts: list[int] = field(default_factory=list)  # parts that became obstacles
-    specs: list[tuple[int, Part]] = field(default_factory=list)  # (part index, panel component)
-
-
-def _sort_panels(b: Building, members: list[int], panels: str, skipped: list[Skipped]) -> _Panels:
-    """Each panel part as ``panels`` says: skipped (added to ``skipped``), obstacle cells
-    (less those of columns and beams) or a component (skipped with the reason if it cannot)."""
-    use = _Panels()
-    taken = {c: i for i in members for c in b.parts[i].cells()}
-    for i in [i for i, p in enumerate(b.parts) if kind_named(p.kind).panel]:
-        part = b.parts[i]
-        e = part.element
-        if panels == "skip":
-            skipped.append(Skipped(e.ifc_type, e.global_id, e.name, "a panel (--panels skip)"))
-        elif panels == "obstacles":
-            cells = [c for c in part.cells() if c not in taken]
-            taken.update(dict.fromkeys(cells, i))
-            use.obstacles += _boxes(cells)
-            use.obstacle_parts.append(i)
-        else:
-            reason = _panel_problem(b, part, taken)
-            if reason is not None:
-                skipped.append(Skipped(e.ifc_type, e.global_id, e.name, reason))
-                continue
-            taken.update(dict.fromkeys(part.cells(), i))
-            use.specs.append((i, part))
-    return use
-
-
-def _height(path: str | Path, cell: float, comps: list[ComponentSpec], use: _Panels) -> int:
+def _height(path: str | Path, cell: float, comps: list[ComponentSpec], use: Panels) -> int:
     """The site's height: the building's top plus its longest column (refused over
     ``MAX_HEIGHT``)."""
     top = max(c.target[1][2] for c in comps)
@@ -187,30 +156,6 @@ def _lay_out(kept: list[Part], comps: list[ComponentSpec], height: int, yard: st
               "column_height": height - 1, "yard": yard, "random_start": False,
               "obstacles": 0}  # fmt: skip
     return generator_yard.lay_out(comps, params, random.Random(0))
-
-
-def _foundations(b: Building, panels: list[PanelSpec], ox: int, oy: int):
-    """The columns' foundations, and a foundation strip under every wall standing on the ground."""
-    cells = [(x + ox, y + oy) for x, y in b.foundations]
-    for p in panels:
-        (x0, y0, z0), (x1, y1, z1) = p.target
-        if kind_named(p.kind).supports == UNDER_ALL and min(z0, z1) == 1:
-            cells += [(x, y) for x in range(min(x0, x1), max(x0, x1) + 1)
-                      for y in range(min(y0, y1), max(y0, y1) + 1)]  # fmt: skip
-    return tuple(dict.fromkeys(cells))
-
-
-def _panel_problem(b: Building, part: Part, taken: dict[Cell, int]) -> str | None:
-    size = [h - lo + 1 for lo, h in zip(part.lo, part.hi, strict=True)]
-    if min(size) > 1:
-        return f"a panel thicker than one cell at the cell size ({size[0]} x {size[1]} x {size[2]})"
-    if sorted(size)[1] == 1:
-        return "a panel narrower than two cells at the cell size (use a column or beam)"
-    clash = next((taken[c] for c in part.cells() if c in taken), None)
-    if clash is not None:
-        e = b.parts[clash].element
-        return f"a panel overlapping {e.ifc_type} {e.global_id} {e.name!r} at the cell size"
-    return None
 
 
 def _ids(b: Building, indices: list[int]) -> dict[int, str]:
@@ -248,63 +193,3 @@ def _shift(pose, ox: int, oy: int):
 
 def _move(c: Cell, ox: int, oy: int) -> Cell:
     return (c[0] + ox, c[1] + oy, c[2])
-
-
-def _boxes(cells: list[Cell]) -> list[Box]:
-    """Disjoint boxes covering ``cells`` exactly (greedy: grow along x, then y, then z)."""
-    left = set(cells)
-    out: list[Box] = []
-    for start in sorted(cells, key=lambda c: (c[2], c[1], c[0])):
-        if start not in left:
-            continue
-        hi = list(start)
-        for axis in range(3):
-            while True:
-                hi[axis] += 1
-                box = Box(start, tuple(hi))  # type: ignore[arg-type]
-                if not all(c in left for c in box.cells()):
-                    hi[axis] -= 1
-                    break
-        box = Box(start, tuple(hi))  # type: ignore[arg-type]
-        left.difference_update(box.cells())
-        out.append(box)
-    return out
-
-
-def _panel_yard(b: Building, specs: list[tuple[int, Part]], ids: dict[int, str], ox: int,
-                oy: int, size: tuple[int, int, int]):  # fmt: skip
-    """Panels' targets moved onto the site, and their starts: lying flat at ``z = 1`` in a
-    strip added beyond the site's high-y edge (rows along x, one free cell between panels,
-    a margin of the longest panel side around the strip)."""
-    if not specs:
-        return [], size
-    sides = [sorted((h - lo + 1 for lo, h in zip(p.lo, p.hi, strict=True)), reverse=True)[:2]
-             for _, p in specs]  # fmt: skip
-    margin = max(a for a, _ in sides)
-    X, Y, H = size
-    X = max(X, 2 * margin + max(a for a, _ in sides))
-    x, y, row = margin, Y + margin, 0
-    out: list[PanelSpec] = []
-    for (i, p), (a, w) in zip(specs, sides, strict=True):
-        if x + a > X - margin:
-            x, y, row = margin, y + row + 1, 0
-        initial = ((x, y, 1), (x + a - 1, y + w - 1, 1))
-        target = (_move(p.lo, ox, oy), _move(p.hi, ox, oy))
-        supports = _panel_supports(b, p, list(ids), ids)
-        out.append(PanelSpec(ids[i], p.kind, initial, target, supports))
-        x, row = x + a + 1, max(row, w)
-    return out, (X, y + row + margin, H)
-
-
-def _panel_supports(b: Building, p: Part, accepted: list[int],
-                    ids: dict[int, str]) -> tuple[str, ...]:  # fmt: skip
-    """Ids of the accepted parts right under panel ``p`` that share a face with it."""
-    cells = p.cells()
-    bottom = min(c[2] for c in cells)
-    out = []
-    for j in accepted:
-        other = b.parts[j]
-        below = other is not p and max(other.lo[2], other.hi[2]) < bottom
-        if below and geometry.touches(cells, other.cells()):
-            out.append(ids[j])
-    return tuple(out)

@@ -5,15 +5,18 @@ the scenario format has no key for: a header naming the source file and the skip
 comment line per skipped element: type, GlobalId, name, reason), and above each component a
 comment with the IFC element it came from (type, GlobalId, name, storey, and which part of a
 split beam). The storeys are also in the ``description`` and in the component ids (``c2-5``:
-a column of storey 2), so they survive loading. Panel components (``PanelSpec``) are written
-in the agreed panel schema of issue 21: ``kind = "slab"`` or ``"wall"``, ``initial`` and
-``target`` two opposite corner cells of a one-cell-thick rectangle, no ``length``, and
-``supports`` naming the components right under the panel.
+a column of storey 2), so they survive loading. ``elements_of(text)`` reads each component's
+element (type, GlobalId) back from those comments (the 4D export, ``multicrane.ifc.schedule_4d``).
+Panel components (``PanelSpec``) are written in the panel schema of scenarios/README.md:
+``kind = "slab"`` or ``"wall"``, ``initial`` and ``target`` two opposite corner cells of a
+one-cell-thick rectangle, no ``length``, and ``supports`` naming the targets the panel rests
+on (``multicrane.ifc.panels``).
 """
 
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, replace
 
 from multicrane.core.schema import Cell, Scenario
@@ -89,6 +92,23 @@ def scenario_text(s: Scenario, b: Building, ids: dict[int, str], skipped: list[S
             lines.append("supports = [" + ", ".join(_s(i) for i in p.supports) + "]")
         lines.append("")
     return "\n".join(head + [""] + lines)
+
+
+# The comment above a component (``_origin``) starts with its element's type and GlobalId.
+_ORIGIN = re.compile(r"# (Ifc[A-Za-z0-9]+) ([0-9A-Za-z_$]{22})(?: |$)")
+
+
+def elements_of(text: str) -> dict[str, tuple[str, str]]:
+    """Component id -> (IFC type, GlobalId) of the element it came from, read from the comment
+    above each ``[[components]]`` of a file written by ``scenario_text`` (empty for a scenario
+    file that was not imported)."""
+    lines = text.split("\n")
+    out = {}
+    for k in range(1, len(lines) - 1):
+        origin = _ORIGIN.match(lines[k - 1])
+        if lines[k] == "[[components]]" and origin and lines[k + 1].startswith("id = "):
+            out[json.loads(lines[k + 1].removeprefix("id = "))] = origin.groups()
+    return out
 
 
 def _origin(part) -> str:

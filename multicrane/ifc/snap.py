@@ -8,22 +8,27 @@ and the lowest column base is the ground (the top of ``z = 0``). Rules:
   base to the plane nearest its top; at the ground it gets a foundation, above the ground it
   must stand on a column target (else it is skipped: "stands on nothing");
 - a **beam** (a lying member) takes the cell row through its centre, at the height whose cell
-  top is nearest its top face, from the plane nearest one end to the plane nearest the other;
-  the cells of column targets are cut out of it (a beam through a column is split into one
-  part per span) and each part rests on the column targets it touches (its ``supports``); a
-  part that touches no column is skipped (the scenario format has beams resting on columns);
+  top is nearest its top face, from the plane nearest one end to the plane nearest the other.
+  Beams are placed in rounds: in the first, each part that touches a column target rests on
+  the columns it touches (its ``supports``); in each later one, a part rests on the columns
+  it touches and the beams at its ends or under it, placed in earlier rounds and not above
+  it, so a secondary beam rests on the beams it frames into, and a beam on those under it.
+  The cells of columns and of beams placed across it are cut out of a beam (a beam through a
+  column or a girder is split into one part per span, "part 2 of 3"); a part that overlaps a
+  beam along the same line is skipped, and so is one that nothing supports ("rests on no
+  column or beam");
 - a **panel** (slab, wall, plate) takes the cells between the planes nearest its faces (at
   least the cell of its centre along a thin side); a slab is thinnest along z, a wall across.
 
-A member shorter than one cell after snapping, or overlapping one already placed, is skipped
-with the reason. The result's cells are indices of the grid ``Grid``; the same box in the world
-is ``Grid.cell_box``.
+A member shorter than one cell after snapping, or a column overlapping one already placed, is
+skipped with the reason. The result's cells are indices of the grid ``Grid``; the same box in
+the world is ``Grid.cell_box``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from multicrane.core.kinds import (
     HORIZONTAL_BAR,
@@ -31,12 +36,13 @@ from multicrane.core.kinds import (
     VERTICAL_BAR,
     VERTICAL_PANEL,
     ifc_kind,
+    kind_named,
 )
 from multicrane.core.schema import Cell
 from multicrane.ifc.read import Element, Skipped
-from multicrane.sim import geometry
 
 _EPS = 1e-6
+_FACES = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
 
 
 @dataclass(frozen=True)
@@ -104,23 +110,14 @@ def snap(elements: list[Element], cell: float) -> Building:
     b = Building(Grid(cell, (x0, y0, z0)))
     occupied: dict[Cell, int] = {}  # cell -> the index of the part that takes it
     _snap_columns(b, occupied, columns)
-    column_cells = dict(occupied)
-    for e in (e for e in elements if e.role == "beam"):
-        _snap_beam(b, occupied, column_cells, e)
+    _snap_beams(b, occupied, [e for e in elements if e.role == "beam"])
     for e in (e for e in elements if e.role == "panel"):
         _snap_panel(b, e)
     return _to_origin(b)
 
 
-def _add(b: Building, occupied: dict[Cell, int], part: Part) -> int | None:
-    """Place ``part`` (its index in ``b.parts``), or skip it when it overlaps a placed one."""
-    clash = next((occupied[c] for c in part.cells() if c in occupied), None)
-    if clash is not None:
-        other = b.parts[clash].element
-        b.skipped.append(_skip(part.element, f"{part.piece + ': ' if part.piece else ''}"
-                               f"overlaps {other.ifc_type} {other.global_id} "
-                               f"{other.name!r} at the cell size"))  # fmt: skip
-        return None
+def _put(b: Building, occupied: dict[Cell, int], part: Part) -> int:
+    """Place ``part`` on free cells; its index in ``b.parts``."""
     b.parts.append(part)
     for c in part.cells():
         occupied[c] = len(b.parts) - 1
@@ -142,49 +139,105 @@ def _snap_columns(b: Building, occupied: dict[Cell, int], columns: list[Element]
             b.skipped.append(_skip(e, "stands on nothing: no column below it and not at the "
                                       "lowest column base"))  # fmt: skip
             continue
-        column = ifc_kind(e.ifc_type, VERTICAL_BAR).name
-        placed = _add(b, occupied, Part(e, column, (x, y, bottom), (x, y, top))) is not None
-        if placed and bottom == 1 and (x, y) not in b.foundations:
+        part = Part(e, ifc_kind(e.ifc_type, VERTICAL_BAR).name, (x, y, bottom), (x, y, top))
+        clash = next((occupied[c] for c in part.cells() if c in occupied), None)
+        if clash is not None:
+            other = b.parts[clash].element
+            b.skipped.append(_skip(e, f"overlaps {other.ifc_type} {other.global_id} "
+                                      f"{other.name!r} at the cell size"))  # fmt: skip
+            continue
+        _put(b, occupied, part)
+        if bottom == 1 and (x, y) not in b.foundations:
             b.foundations.append((x, y))
 
 
-def _snap_beam(
-    b: Building, occupied: dict[Cell, int], column_cells: dict[Cell, int], e: Element
-) -> None:
-    """A beam, cut at column targets, each part resting on the columns it touches."""
+@dataclass
+class _Piece:
+    """A run of cells of one beam, not placed yet: ``cells`` along ``axis`` at ``(across, z)``."""
+
+    element: Element
+    axis: int
+    across: int
+    z: int
+    cells: list[int]
+
+    def at(self, a: int) -> Cell:
+        return (a, self.across, self.z) if self.axis == 0 else (self.across, a, self.z)
+
+
+def _beam_line(b: Building, e: Element) -> _Piece | None:
+    """The cells of a lying member before any cut (None, and the skip, below the ground)."""
     grid = b.grid
     axis = 0 if e.hi[0] - e.lo[0] >= e.hi[1] - e.lo[1] else 1
     other = 1 - axis
     z = grid.plane(e.hi[2], 2)
-    across = grid.inside((e.lo[other] + e.hi[other]) / 2, other)
-    first_cell, last_cell = grid.plane(e.lo[axis], axis), grid.plane(e.hi[axis], axis) - 1
     if z < 1:
         b.skipped.append(_skip(e, "lies below the lowest column base"))
-        return
+        return None
+    across = grid.inside((e.lo[other] + e.hi[other]) / 2, other)
+    first, last = grid.plane(e.lo[axis], axis), grid.plane(e.hi[axis], axis) - 1
+    return _Piece(e, axis, across, z, list(range(first, last + 1)))
 
-    def at(a: int) -> Cell:
-        return (a, across, z) if axis == 0 else (across, a, z)
 
-    runs = _runs_between(range(first_cell, last_cell + 1), lambda a: at(a) in column_cells)
-    if not runs:
-        length = e.hi[axis] - e.lo[axis]
-        b.skipped.append(_skip(e, f"too short for the cell size ({length:.2f} m between "
-                                  f"columns, cell {grid.cell} m)"))  # fmt: skip
-        return
-    for n, run in enumerate(runs, 1):
-        piece = f"part {n} of {len(runs)}" if len(runs) > 1 else ""
-        cells = [at(a) for a in run]
-        supports = sorted({column_cells[c] for c in column_cells
-                           if geometry.touches(cells, [c])})  # fmt: skip
-        if not supports:
-            b.skipped.append(_skip(e, f"{piece + ': ' if piece else ''}rests on no column "
-                                      "(beams rest on columns in the scenario format)"))
+def _snap_beams(b: Building, occupied: dict[Cell, int], beams: list[Element]) -> None:
+    """Beams in rounds: a piece rests on the columns and beams placed in earlier rounds that
+    it touches (round one: columns only), so secondary beams follow the beams they rest on.
+    Each piece is cut at the cells of columns and of the beams across it."""
+    pending: list[_Piece] = []
+    for e in beams:
+        line = _beam_line(b, e)
+        if line is None:
             continue
-        beam = ifc_kind(e.ifc_type, HORIZONTAL_BAR).name
-        _add(b, occupied, Part(e, beam, at(run[0]), at(run[-1]), tuple(supports), piece))
+        if all(line.at(a) in occupied for a in line.cells):  # only columns are placed yet
+            length = e.hi[line.axis] - e.lo[line.axis]
+            where = "between columns" if line.cells else "long"
+            b.skipped.append(_skip(e, f"too short for the cell size ({length:.2f} m {where}, "
+                                      f"cell {b.grid.cell} m)"))  # fmt: skip
+        else:
+            pending.append(line)
+    outcomes: list[tuple[_Piece, int | str]] = []  # each piece: its part index, or why not
+    while pending:
+        before, left, placed = dict(occupied), [], False
+        for piece in pending:
+            runs = _cut(b, piece, occupied)
+            if isinstance(runs, str):
+                outcomes.append((piece, runs))
+                continue
+            for run in runs:
+                supports = _beam_supports(b, before, run)
+                if supports:
+                    kind = ifc_kind(run.element.ifc_type, HORIZONTAL_BAR).name
+                    part = Part(run.element, kind, run.at(run.cells[0]), run.at(run.cells[-1]),
+                                supports)  # fmt: skip
+                    outcomes.append((run, _put(b, occupied, part)))
+                    placed = True
+                else:
+                    left.append(run)
+        if not placed:
+            outcomes += [(run, "rests on no column or beam") for run in left]
+            break
+        pending = left
+    _label_pieces(b, outcomes)
 
 
-def _runs_between(cells: range, cut) -> list[list[int]]:
+def _along(part: Part, axis: int) -> bool:
+    """Whether ``part`` is a beam lying along ``axis`` (more than one cell long)."""
+    return kind_named(part.kind).shape == HORIZONTAL_BAR and part.lo[axis] != part.hi[axis]
+
+
+def _cut(b: Building, piece: _Piece, occupied: dict[Cell, int]) -> list[_Piece] | str:
+    """The runs of ``piece`` between the cells already taken (by columns and by beams across
+    it), or why it is left out: it overlaps a beam lying along the same line."""
+    for a in piece.cells:
+        j = occupied.get(piece.at(a))
+        if j is not None and _along(b.parts[j], piece.axis):
+            other = b.parts[j].element
+            return f"overlaps {other.ifc_type} {other.global_id} {other.name!r} at the cell size"
+    runs = _runs_between(piece.cells, lambda a: piece.at(a) in occupied)
+    return [_Piece(piece.element, piece.axis, piece.across, piece.z, run) for run in runs]
+
+
+def _runs_between(cells: list[int], cut) -> list[list[int]]:
     """The runs of consecutive ``cells`` between those where ``cut`` holds (none empty)."""
     runs: list[list[int]] = []
     for a in cells:
@@ -195,6 +248,42 @@ def _runs_between(cells: range, cut) -> list[list[int]]:
         else:
             runs.append([a])
     return [r for r in runs if r]
+
+
+def _beam_supports(b: Building, before: dict[Cell, int], run: _Piece) -> tuple[int, ...]:
+    """The parts in ``before`` that ``run`` rests on: of a kind its kind rests on (the kind
+    table) and not above it; a column sharing a face with it, a beam under it or at one of
+    its ends (a beam lying alongside carries nothing)."""
+    rests_on = ifc_kind(run.element.ifc_type, HORIZONTAL_BAR).rests_on
+    found: set[int] = set()
+    for a in run.cells:
+        x, y, z = run.at(a)
+        for face in _FACES:
+            j = before.get((x + face[0], y + face[1], z + face[2]))
+            if j is None or j in found:
+                continue
+            other = kind_named(b.parts[j].kind)
+            alongside = other.shape == HORIZONTAL_BAR and face[2] == 0 and face[run.axis] == 0
+            low = min(b.parts[j].lo[2], b.parts[j].hi[2]) <= z
+            if other.code in rests_on and low and not alongside:
+                found.add(j)
+    return tuple(sorted(found))
+
+
+def _label_pieces(b: Building, outcomes: list[tuple[_Piece, int | str]]) -> None:
+    """Number the pieces of every split beam ("part 2 of 3", along its axis) and report the
+    pieces left out."""
+    by_element: dict[int, list[tuple[_Piece, int | str]]] = {}
+    for run, result in outcomes:
+        by_element.setdefault(id(run.element), []).append((run, result))
+    for pieces in by_element.values():
+        pieces.sort(key=lambda o: o[0].cells[0])
+        for k, (run, result) in enumerate(pieces, 1):
+            piece = f"part {k} of {len(pieces)}" if len(pieces) > 1 else ""
+            if isinstance(result, int):
+                b.parts[result] = replace(b.parts[result], piece=piece)
+            else:
+                b.skipped.append(_skip(run.element, f"{piece + ': ' if piece else ''}{result}"))
 
 
 def _snap_panel(b: Building, e: Element) -> None:

@@ -70,6 +70,9 @@ class SiteImage:
         rgbs += list(palette_of)
         shades = np.array(SHADES)[None, :, None]
         self.palette = np.round(np.array(rgbs, dtype=float)[:, None, :] * shades).astype(np.uint8)
+        self.palette_rows = self.palette.reshape(-1, 3)  # row 3 * colour + face
+        ghost = self.palette[self.base_color[GHOST]].astype(np.uint16)
+        self._ghost_rgb = ghost * (256 - _KEEP)  # per face, in 1/256ths
         # the palette entry of each (component, status)
         self.component_color = np.array(
             [[palette_of[tuple(rgba[:3])] for rgba in colors] for colors in spec_colors],
@@ -77,6 +80,7 @@ class SiteImage:
         ).reshape(len(spec_colors), -1)
         self.bases = [crane.base for crane in sim.scenario.crane_specs or ()]
         self._ghost_cache = None
+        self._nearest = np.empty(self.shape[0] * self.shape[1], dtype=np.int32)  # scratch
         self.background, self.depth = self._background(sim)
 
     def keys(self, x, y, z):
@@ -94,28 +98,28 @@ class SiteImage:
         keep = faces[:, self.face]
         return pix[keep], np.broadcast_to(self.face, pix.shape)[keep]
 
-    def _paint(self, img, depth, x, y, z, color, faces) -> None:
-        """Opaque cubes in front of what ``depth`` holds, the nearest at each pixel."""
-        if len(x) == 0:
-            return
+    def _paint(self, img, depth, x, y, z, color, faces) -> tuple[np.ndarray, np.ndarray]:
+        """Opaque cubes in front of what ``depth`` holds, the nearest at each pixel; returns
+        the pixels painted and their keys."""
         pix, face, key, col = self._front(depth, x, y, z, color, faces)
-        img[pix] = self.palette[col, face]
+        img.reshape(-1)[_channels(pix)] = np.take(self.palette_rows, 3 * col + face, axis=0)
         depth[pix] = key
+        return pix, key
 
     def _front(self, depth, x, y, z, color, faces):
         """The pixels of these cubes in front of ``depth``: per pixel the nearest cube's pixel
         index, face, key and palette colour."""
         pix, face = self._pixels(x, y, z, faces)
         per_cube = faces[:, self.face].sum(axis=1)
-        key = np.repeat(self.keys(x, y, z), per_cube)
-        col = np.repeat(color, per_cube)
-        front = key > depth[pix]
-        pix, face, key, col = pix[front], face[front], key[front], col[front]
-        order = np.argsort(pix.astype(np.int64) * (1 << 20) + key)  # by pixel, then key
-        pix, face, key, col = pix[order], face[order], key[order], col[order]
-        last = np.ones(len(pix), dtype=bool)  # the nearest cube at each pixel
-        last[:-1] = pix[1:] != pix[:-1]
-        return pix[last], face[last], key[last], col[last]
+        key = np.repeat(self.keys(x, y, z).astype(np.int32), per_cube)
+        behind = depth[pix]
+        nearest = self._nearest  # per pixel: the largest key, of ``depth`` and these cubes
+        nearest[pix] = behind
+        np.maximum.at(nearest, pix, key)
+        # Two cubes with one key never share a pixel (same x + y and z: 2a pixels apart),
+        # so each pixel has at most one winner.
+        won = (key == nearest[pix]) & (key > behind)
+        return pix[won], face[won], key[won], np.repeat(color, per_cube)[won]
 
     # -- the two layers ---------------------------------------------------------------------
 
@@ -145,7 +149,8 @@ class SiteImage:
 
     def draw(self, sim: Simulator) -> np.ndarray:
         """The site now: components, free targets, closed zones and cranes."""
-        img = self.background.copy()
+        veiled, ghost_key, ghost_face = self._ghosts(sim)
+        img = veiled.copy()
         depth = self.depth.copy()
         X, Y, H = self.size
         occ = sim.state.occ.reshape(sim.site.shape)
@@ -158,7 +163,8 @@ class SiteImage:
             tops[:, 0] = True
             pix, face, _, col = self._front(depth, x, y, np.zeros_like(x),
                                             np.full(len(x), self.base_color[CLOSED]), tops)
-            img[pix] = (0.6 * self.palette[col, face] + 0.4 * img[pix]).astype(np.uint8)
+            img[pix] = (0.6 * self.palette[col, face] + 0.4 * self.background[pix]).astype(np.uint8)
+            self._veil(img, pix[ghost_key[pix] > depth[pix]], ghost_face)
         x, y, z = np.nonzero(inner > 0)
         comp = inner[x, y, z].astype(np.intp) - 1
         color = self.component_color[comp, sim.state.status[comp].astype(np.intp)]
@@ -169,16 +175,21 @@ class SiteImage:
         solid = np.zeros(occ.shape, dtype=bool)  # the padding hides no face
         solid[1 : X + 1, 1 : Y + 1, 1 : H + 1] = inner != 0
         solid[mx + 1, my + 1, mz] = True
-        self._paint(img, depth, x, y, z, color, _visible_faces(solid, cells))
-        pix, rgb, key = self._ghosts(sim)
-        front = key > depth[pix]
-        pix = pix[front]
-        img[pix] = ((img[pix].astype(np.uint16) * _KEEP + rgb[front]) >> 8).astype(np.uint8)
+        pix, key = self._paint(img, depth, x, y, z, color, _visible_faces(solid, cells))
+        self._veil(img, pix[ghost_key[pix] > key], ghost_face)
         return img.reshape(*self.shape, 3)
 
+    def _veil(self, img: np.ndarray, pix: np.ndarray, ghost_face: np.ndarray) -> None:
+        """Blend the ghosts' faces (``ghost_face``, per pixel) over ``img`` at ``pix``."""
+        flat, at = img.reshape(-1), _channels(pix)
+        rgb = np.take(self._ghost_rgb, ghost_face[pix], axis=0)
+        flat[at] = ((flat[at].astype(np.uint16) * _KEEP + rgb) >> 8).astype(np.uint8)
+
     def _ghosts(self, sim: Simulator):
-        """The free targets' cubes (pixels, colours, keys), kept until a target fills or
-        frees (a component passing through a target cell hides its ghost by the depth test)."""
+        """The free targets' cubes, kept until a target fills or frees: the background with
+        them blended in, and per pixel the nearest ghost's key (``-2**30`` where none) and
+        face. A frame blends them again only over what it paints behind them (a component
+        passing through a target cell hides its ghost by the depth test)."""
         filled = sim.state.filled_by.tobytes()
         if self._ghost_cache is not None and self._ghost_cache[0] == filled:
             return self._ghost_cache[1]
@@ -189,18 +200,16 @@ class SiteImage:
         x, y, z = x[free], y[free], z[free] + 1
         faces = np.ones((len(x), 3), dtype=bool)
         color = np.full(len(x), self.base_color[GHOST])
-        never = np.full(self.shape[0] * self.shape[1], -(2**30), dtype=np.int32)
-        pix, face, key, col = self._front(never, x, y, z, color, faces)
-        found = (pix, self.palette[col, face].astype(np.uint16) * (256 - _KEEP), key)
+        ghost_key = np.full(self.shape[0] * self.shape[1], -(2**30), dtype=np.int32)
+        pix, face, key, _ = self._front(ghost_key, x, y, z, color, faces)
+        ghost_key[pix] = key
+        ghost_face = np.zeros(len(ghost_key), dtype=np.intp)
+        ghost_face[pix] = face
+        veiled = self.background.copy()
+        self._veil(veiled, pix[key > self.depth[pix]], ghost_face)
+        found = (veiled, ghost_key, ghost_face)
         self._ghost_cache = (filled, found)
         return found
-
-    def _free_targets(self, sim: Simulator, inner: np.ndarray):
-        X, Y, H = self.size
-        target_at = sim.site.target_at.reshape(sim.site.shape)[1 : X + 1, 1 : Y + 1, 1 : H + 1]
-        x, y, z = np.nonzero((target_at >= 0) & (inner == 0))
-        free = sim.state.filled_by[target_at[x, y, z]] < 0
-        return x[free], y[free], z[free] + 1
 
     def _masts(self, sim: Simulator, occ: np.ndarray):
         cells, colors = [], []
@@ -219,6 +228,12 @@ class SiteImage:
         return arr[:, 0], arr[:, 1], arr[:, 2], np.array(colors, dtype=np.intp)
 
 
+def _channels(pix: np.ndarray) -> np.ndarray:
+    """(N, 3) indices into the flat (H * W * 3) image of the red, green and blue bytes of the
+    pixels ``pix``: numpy gathers and scatters a flat array several times faster than rows."""
+    return 3 * pix[:, None] + _RGB
+
+
 def _visible_faces(solid: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """(N, 3) bool: whether each cube's top, left (+y) and right (+x) face is uncovered;
     ``solid`` is the padded grid (index x + 1, y + 1, z), ``cells`` (N, 3) unpadded (x, y, z)."""
@@ -228,6 +243,7 @@ def _visible_faces(solid: np.ndarray, cells: np.ndarray) -> np.ndarray:
     )
 
 
+_RGB = np.arange(3)
 _KEEP = round((1 - GHOST_ALPHA) * 256)  # a ghost's blend, in 1/256ths of what is behind it
 
 __all__ = ["SiteImage"]

@@ -130,9 +130,21 @@ def log_static(rec, scenario: Scenario, sim) -> None:
     )
 
 
-def blueprint(scenario: Scenario, play_state: str | None = None):
+def crane_lane(crane: int) -> str:
+    """The entity of a crane's activity lane (``multicrane.replay.timeline``'s codes)."""
+    return f"cranes/crane_{crane}/activity"
+
+
+def crane_log(crane: int) -> str:
+    """The entity of a crane's text log of its timeline (one line as each interval starts)."""
+    return f"cranes/crane_{crane}/log"
+
+
+def blueprint(scenario: Scenario, play_state: str | None = None, n_cranes: int = 0):
     """3D view (left) beside the metric plots and the event log (right); ``play_state``
-    (``"paused"``, ``"playing"``, ``"following"``) sets the time panel's initial state."""
+    (``"paused"``, ``"playing"``, ``"following"``) sets the time panel's initial state.
+    ``n_cranes`` cranes get a timeline: an activity lane each under the 3D view and their text
+    logs on the right (0: no timeline)."""
     import_rerun()
     import rerun.blueprint as rrb
 
@@ -147,18 +159,33 @@ def blueprint(scenario: Scenario, play_state: str | None = None):
     view = rrb.Spatial3DView(
         name="site",
         origin="/",
-        contents=["site/**", "components", "cranes/**"],
+        contents=["site/**", "components", "cranes/hooks", "cranes/cables"],
         eye_controls=eye,
     )
-    side = rrb.Vertical(
+    side = [
         rrb.TimeSeriesView(name="return", origin="metrics/return"),
         rrb.TimeSeriesView(name="progress", origin="metrics/progress"),
         rrb.TimeSeriesView(name="reward", origin="metrics/reward"),
         rrb.TextLogView(name="events", origin="events"),
-        row_shares=[1, 1, 1, 2],
-    )
+    ]
+    if n_cranes:
+        lanes = [
+            rrb.TimeSeriesView(
+                name=f"crane_{k}",
+                origin=crane_lane(k),
+                axis_y=rrb.ScalarAxis(range=(-1.5, 3.5), zoom_lock=True),
+            )
+            for k in range(n_cranes)
+        ]
+        view = rrb.Vertical(view, *lanes, row_shares=[1.5 * n_cranes] + [1] * n_cranes)
+        side.append(
+            rrb.TextLogView(
+                name="cranes", origin="cranes", contents=[crane_log(k) for k in range(n_cranes)]
+            )
+        )
+    right = rrb.Vertical(*side, row_shares=[1, 1, 1, 2, 2][: len(side)])
     return rrb.Blueprint(
-        rrb.Horizontal(view, side, column_shares=[3, 1]),
+        rrb.Horizontal(view, right, column_shares=[3, 1]),
         rrb.TimePanel(timeline=TIMELINE, play_state=play_state, state="collapsed"),
         collapse_panels=True,
     )

@@ -99,7 +99,7 @@ class Timeline:
         # Automatic mode assigns at reset: those cranes start with a lift.
         self._held = [int(c) for c in sim.state.held]
         self._phase = [WAIT if c == NOBODY else LIFT for c in self._held]
-        self._outages = list(sim.schedule.outages) if sim.schedule is not None else []
+        self._schedule = sim.schedule  # None: no site events
         self._mode = env.unwrapped.mode
         self._seen_trace = 0
 
@@ -117,18 +117,16 @@ class Timeline:
     def _physical_step(self, events: Sequence[EventRow]) -> None:
         """Step ``self.steps + 1``: each crane's activity in it, then its phase after it."""
         t = self.steps
-        down = [False] * self.n_cranes
-        for o in self._outages:
-            if o.start <= t < o.end and o.crane < self.n_cranes:
-                down[o.crane] = True
-        started = [False] * self.n_cranes
-        claimed = [NOBODY] * self.n_cranes
+        n = self.n_cranes
+        down = self._schedule.down_at(n, t) if self._schedule is not None else [False] * n
+        started = [False] * n
+        claimed = [NOBODY] * n
         for etype, crane, comp in events:
             if etype == "ASSEMBLY_STARTED":
                 started[crane] = True
             elif etype == "CLAIMED":
                 claimed[crane] = comp
-        for k in range(self.n_cranes):
+        for k in range(n):
             phase, comp = self._phase[k], self._held[k]
             if down[k]:
                 what = DOWN

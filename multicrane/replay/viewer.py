@@ -17,6 +17,9 @@ Entities (one timeline, ``step``; step 0 is the state after reset):
   stays where it last was) and ``cranes/cables`` (hook to component).
 - ``metrics/reward``, ``metrics/return``, ``metrics/progress`` (assembled fraction).
 - ``events``: a text log of claims, blocked moves, arrivals and assemblies.
+- ``cranes/crane_k/activity`` and ``cranes/crane_k/log``: each crane's timeline (lifts,
+  assemblies, waits, breakdowns; ``multicrane.replay.timeline``), a lane under the 3D view
+  and a text log.
 
 A cell ``(x, y, z)`` is drawn as the unit cube ``[x, x+1] x [y, y+1] x [z-1, z]``, so the
 ground is the plane ``z = 0``. Whole episodes go out with ``send_columns`` (one call per
@@ -44,6 +47,7 @@ from multicrane.render.scene import (
     log_static,
     pack_colors,
 )
+from multicrane.render.viewers import connect_viewer, spawn_viewer
 from multicrane.replay.record import EpisodeRecord, record_episode, resimulate_steps
 from multicrane.replay.viewer_episode import (
     LOGGED_EVENTS,
@@ -51,6 +55,8 @@ from multicrane.replay.viewer_episode import (
     crane_geometry,
     event_text,
     home_positions,
+    log_lane_style,
+    log_timeline,
 )
 
 if TYPE_CHECKING:
@@ -98,7 +104,8 @@ def save_collected(
     """Write a collected episode to an .rrd file."""
     path = Path(path)
     rec = new_recording(name, recording_id)
-    rec.save(path, default_blueprint=blueprint(collector.env.scenario, play_state))
+    env = collector.env
+    rec.save(path, default_blueprint=blueprint(env.scenario, play_state, env.sim.n_cranes))
     collector.send(rec)
     rec.flush()
     rec.disconnect()
@@ -110,17 +117,25 @@ def send_record(record: EpisodeRecord, rec) -> None:
     collector = EpisodeCollector()
     for _ in resimulate_steps(record, listeners=[collector]):
         pass
-    rec.send_blueprint(blueprint(collector.env.scenario))
+    rec.send_blueprint(blueprint(collector.env.scenario, n_cranes=collector.env.sim.n_cranes))
     collector.send(rec)
 
 
-def connect(rec, url: str | None = None, spawn: bool = False, scenario: Scenario | None = None):
-    """Connect a stream to a viewer: ``spawn`` one, or the running one at ``url``."""
-    bp = blueprint(scenario) if scenario is not None else None
+def connect(
+    rec,
+    url: str | None = None,
+    spawn: bool = False,
+    scenario: Scenario | None = None,
+    play_state: str | None = None,
+):
+    """Connect a stream to a viewer: ``spawn`` one (on PATH or beside the running Python), or
+    the running one at ``url`` (default: the local one); ``NoViewer`` (one line) when there is
+    none to reach (``multicrane.render.viewers``)."""
+    bp = blueprint(scenario, play_state) if scenario is not None else None
     if spawn:
-        rec.spawn(default_blueprint=bp)
+        spawn_viewer(rec, bp)
     else:
-        rec.connect_grpc(url, default_blueprint=bp)
+        connect_viewer(rec, url, bp)
     return rec
 
 
@@ -133,8 +148,11 @@ class LiveViewer:
 
     def on_reset(self, env: MultiCraneEnv) -> None:
         self._collector.on_reset(env)
-        self.rec.send_blueprint(blueprint(env.scenario))
+        self.rec.send_blueprint(blueprint(env.scenario, n_cranes=env.sim.n_cranes))
         log_static(self.rec, env.scenario, env.sim)
+        for k in range(env.sim.n_cranes):
+            log_lane_style(self.rec, import_rerun(), k)
+        self._drawn = 0  # the timeline is drawn up to this time
         self._send_last()
 
     def on_step(self, env: MultiCraneEnv, actions, reward: float, events) -> None:
@@ -154,6 +172,8 @@ class LiveViewer:
         one.events = c.events[-1:]
         one.rewards = [sum(c.rewards)]  # the running return
         self._one_step(one, lo[-1], hi[-1], hooks[-1], cables[-1], c.rewards[-1])
+        log_timeline(self.rec, c.timeline, c.env.scenario.ids, self._drawn)
+        self._drawn = c.timeline.steps
 
     def _one_step(self, one: EpisodeCollector, lo, hi, hooks, cables, reward: float) -> None:
         rr = import_rerun()

@@ -5,6 +5,11 @@ One call per entity sends a whole episode. Collecting needs no rerun; only
 component not yet delivered is not drawn (it appears when it is delivered), a crane that is
 down has a red hook, the zones closed at a step are drawn as red boxes
 (``site/closed``) and the events are in the text log.
+
+Each crane's timeline (``multicrane.replay.timeline``) goes beside the 3D view: its activity
+code at every step as a lane (``cranes/crane_k/activity``: 3 assembles, 2 holds an arrived
+component, 1 lifts, 0 waits, -1 down) and a text log (``cranes/crane_k/log``) with a line as
+each interval starts (``lifts c3``, ``assembles c3``, ``waits``, ``breaks down``).
 """
 
 from __future__ import annotations
@@ -14,8 +19,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from multicrane.core.codes import Status
-from multicrane.render.scene import TIMELINE, import_rerun, log_static, pack_colors
+from multicrane.render.scene import (
+    TIMELINE,
+    crane_lane,
+    crane_log,
+    import_rerun,
+    log_static,
+    pack_colors,
+)
 from multicrane.replay.record import EventRow
+from multicrane.replay.timeline import CODES, DOWN, Interval, Timeline, activity_codes, describe
 
 if TYPE_CHECKING:
     from multicrane.envs.crane_env import MultiCraneEnv
@@ -49,9 +62,11 @@ class EpisodeCollector:
 
     def __init__(self) -> None:
         self.env: MultiCraneEnv | None = None
+        self.timeline = Timeline()
 
     def on_reset(self, env: MultiCraneEnv) -> None:
         self.env = env
+        self.timeline.on_reset(env)
         self.steps: list[int] = []
         self.status: list[np.ndarray] = []
         self.cells: list[list[list[int]]] = []  # per step, each component's cell list
@@ -64,6 +79,7 @@ class EpisodeCollector:
         self._capture(0.0, [])
 
     def on_step(self, env: MultiCraneEnv, actions: list[int], reward: float, events) -> None:
+        self.timeline.on_step(env, actions, reward, events)
         self._capture(reward, events)
 
     def _capture(self, reward: float, events: list[EventRow]) -> None:
@@ -188,6 +204,30 @@ class EpisodeCollector:
                 indexes=[rr.TimeColumn(TIMELINE, sequence=np.asarray(at, dtype=np.int64))],
                 columns=rr.TextLog.columns(text=texts, level=levels),
             )
+        self._send_timeline(rec, rr)
+
+    def _send_timeline(self, rec, rr) -> None:
+        """Each crane's lane (its activity code at times 0 .. steps - 1) and its text log."""
+        timeline, ids = self.timeline, self.env.scenario.ids
+        intervals = timeline.intervals
+        codes = activity_codes(intervals, timeline.n_cranes, timeline.steps)
+        time = [rr.TimeColumn(TIMELINE, sequence=np.arange(timeline.steps, dtype=np.int64))]
+        for k in range(timeline.n_cranes):
+            log_lane_style(rec, rr, k)
+            if not timeline.steps:
+                continue
+            rec.send_columns(
+                crane_lane(k), indexes=time, columns=rr.Scalars.columns(scalars=codes[k])
+            )
+            mine = [iv for iv in intervals if iv.crane == k]
+            starts = np.array([iv.start for iv in mine], dtype=np.int64)
+            rec.send_columns(
+                crane_log(k),
+                indexes=[rr.TimeColumn(TIMELINE, sequence=starts)],
+                columns=rr.TextLog.columns(
+                    text=[describe(iv, ids) for iv in mine], level=[_level(iv) for iv in mine]
+                ),
+            )
 
     def _send_closed(self, rec, rr, time) -> None:
         """The closed zones of every step as boxes (none at a step: an empty batch)."""
@@ -208,6 +248,31 @@ class EpisodeCollector:
                 colors=[CLOSED_COLOR] * len(centers),
             ).partition([len(b) for b in self.closed]),
         )
+
+
+# The lanes' legend: what each activity code means.
+LANE_LEGEND = ", ".join(f"{c} {w}" for w, c in sorted(CODES.items(), key=lambda wc: -wc[1]))
+
+
+def log_lane_style(rec, rr, crane: int) -> None:
+    """A crane's lane style (static): its legend names the activity codes."""
+    rec.log(crane_lane(crane), rr.SeriesLines(names=LANE_LEGEND), static=True)
+
+
+def _level(interval: Interval) -> str:
+    return "WARN" if interval.what == DOWN else "INFO"
+
+
+def log_timeline(rec, timeline: Timeline, ids, drawn: int) -> None:
+    """The live view: each crane's lane and log lines from time ``drawn`` on, step by step."""
+    rr = import_rerun()
+    for iv in timeline.since(drawn):
+        for s in range(max(iv.start, drawn), iv.end):
+            rec.set_time(TIMELINE, sequence=s)
+            rec.log(crane_lane(iv.crane), rr.Scalars(CODES[iv.what]))
+        if iv.start >= drawn:
+            rec.set_time(TIMELINE, sequence=iv.start)
+            rec.log(crane_log(iv.crane), rr.TextLog(describe(iv, ids), level=_level(iv)))
 
 
 def home_positions(env: MultiCraneEnv) -> np.ndarray:

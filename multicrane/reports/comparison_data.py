@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 import pickle
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from multicrane.reports.comparison_plot import BOUND, CurvePanel, Curves, Strip, StripPanel, strip
@@ -33,7 +33,7 @@ def _scenarios(episodes: Sequence[Mapping]) -> list[str]:
 def evaluate_panels(rows: Sequence[Mapping], paper: bool) -> list[StripPanel]:
     """``multicrane evaluate``'s rows: per scenario (the sites of a set), a column per policy
     of its episodes' makespans (returns in the paper mode, beside the exact planner's return
-    on each episode, ``optimal_return``)."""
+    on each episode, ``optimal_return``, unless the exact planner is one of the rows)."""
     key = "return" if paper else "makespan"
     panels = []
     for name in _scenarios(rows[0]["episodes"]):
@@ -42,7 +42,8 @@ def evaluate_panels(rows: Sequence[Mapping], paper: bool) -> list[StripPanel]:
             eps = [e for e in row["episodes"] if e["scenario"] == name]
             strips.append(strip(row["policy"], [e[key] for e in eps]))
         first = [e for e in rows[0]["episodes"] if e["scenario"] == name]
-        if paper and all("optimal_return" in e for e in first):
+        played = any(row["policy"] == "optimal" for row in rows)  # the same values
+        if paper and not played and all("optimal_return" in e for e in first):
             strips.append(strip("optimal", [e["optimal_return"] for e in first], kind=BOUND))
         panels.append(StripPanel(name, strips, "return" if paper else MAKESPAN))
     return panels
@@ -95,11 +96,14 @@ def uncertainty_panels(cells: Sequence[Cell], bounds: Sequence[Bound]) -> list[S
     """``multicrane uncertainty``: per scenario and crane count, a cluster per policy with
     its levels side by side (the episodes' makespans), and the undisturbed site's bounds."""
     bound_of = {(b.scenario, b.n_cranes): b for b in bounds}
+    policies = list(dict.fromkeys(c.policy for c in cells))
+    levels = list(dict.fromkeys(c.level for c in cells))
+    order = sorted(cells, key=lambda c: (policies.index(c.policy), levels.index(c.level)))
     panels = []
     for scenario, n in dict.fromkeys((c.scenario, c.n_cranes) for c in cells):
         strips = [
             Strip(c.level, [list(c.makespans)], c.mean, c.ci, cluster=c.policy, kind=c.level)
-            for c in cells
+            for c in order
             if (c.scenario, c.n_cranes) == (scenario, n)
         ]
         b = bound_of.get((scenario, n))
@@ -122,15 +126,28 @@ def run_curve(run_dir: str | Path) -> list[dict]:
         return pickle.load(f)["progress"]["curve"]
 
 
+def run_curves(
+    groups: Mapping[str, Sequence[str | Path]], say: Callable[[str], None] = print
+) -> dict[str, list[list[dict]]]:
+    """``run_curve`` of each group's runs; a group with a run that cannot be read (moved,
+    never evaluated) is left out, and ``say`` says so."""
+    out = {}
+    for label, runs in groups.items():
+        try:
+            out[label] = [run_curve(r) for r in runs]
+        except (OSError, KeyError, pickle.UnpicklingError) as exc:
+            say(f"learning curves of {label}: left out ({exc})")
+    return out
+
+
 def curve_panel(
-    groups: Mapping[str, Sequence[str | Path]], paper: bool, against: str = "time",
+    curves: Mapping[str, Sequence[Sequence[Mapping]]], paper: bool, against: str = "time",
     title: str = "learning curves",
 ) -> CurvePanel:  # fmt: skip
-    """The runs of each group (a policy's training seeds) against training wall time
-    (``against="time"``: each point's ``seconds``, imitation excluded; steps where a run did
-    not record them) or environment steps (``"steps"``): the mean return of the evaluation
+    """Each group's runs (``run_curves``: a policy's training seeds) against training wall
+    time (``against="time"``: each point's ``seconds``, imitation excluded; steps where a
+    run did not record them) or timesteps (``"steps"``): the mean return of the evaluation
     episodes in the paper mode, else their mean makespan (none where not all finished)."""
-    curves = {label: [run_curve(r) for r in runs] for label, runs in groups.items()}
     points = [p for runs in curves.values() for run in runs for p in run]
     timed = against == "time" and all("seconds" in p for p in points)
     x = "seconds" if timed else "step"
@@ -148,10 +165,10 @@ def curve_panel(
     if not timed and not paper:
         xlabel += " (crane decisions)"
     if against == "time" and not timed:
-        xlabel += " (no wall time recorded)"
+        xlabel += ": no wall time recorded"
     ylabel = "mean evaluation return" if paper else "mean evaluation makespan"
     return CurvePanel(title, out, xlabel, ylabel)
 
 
 __all__ = ["MAKESPAN", "curve_panel", "evaluate_panels", "planner_panels", "run_curve",
-           "seed_table_panels", "uncertainty_panels"]  # fmt: skip
+           "run_curves", "seed_table_panels", "uncertainty_panels"]  # fmt: skip

@@ -9,8 +9,8 @@ FILE.png``) and ``tools/marl_curve.py`` draw through ``write_figure``;
   prints as a black bar with its Student-t 95 % interval (``multicrane.stats.ci95``); for a
   learned policy pooled over training seeds, each seed's mean as a diamond (the interval is
   then over seeds, as in ``multicrane seed-table``). Episodes without a value (not finished)
-  are counted above their column (``done/episodes``). Columns may stand in clusters (crane
-  counts, policies), coloured by ``kind`` with a legend.
+  are counted at the top of their column (``done/episodes``, in red). Columns may stand in
+  clusters (crane counts, policies), coloured by ``kind`` with a legend.
 - A ``CurvePanel`` has a line per run of each ``Curves`` group (its evaluations during
   training, against wall time or steps); a group of several runs (training seeds) adds their
   mean, thick, with the 95 % interval over runs as a band. A point where a run did not finish
@@ -134,21 +134,24 @@ def write_figure(panels: list, path: str | Path, title: str | None = None) -> Pa
 
 
 def _width(panel) -> float:
-    if isinstance(panel, StripPanel):
-        return min(max(3.6, 0.45 * len(panel.strips) + 1.4), 8.0)
-    return 4.6
+    """A panel's width in inches: room for each column's label, or for a cluster's and the
+    legend beside it."""
+    if not isinstance(panel, StripPanel):
+        return 4.6
+    if any(s.cluster for s in panel.strips):
+        return min(max(4.0, 0.35 * len(panel.strips) + 2.2), 8.0)
+    return min(max(3.6, 0.75 * len(panel.strips) + 1.4), 9.0)
 
 
 def _colours(panels: list) -> dict[str, str]:
     """A colour per kind of column or curve group, in order of first appearance."""
-    kinds: list[str] = []
+    kinds: dict[str, None] = {}
     for panel in panels:
-        names = (
-            [s.kind or s.label for s in panel.strips]
-            if isinstance(panel, StripPanel)
-            else [g.label for g in panel.groups]
-        )
-        kinds += [k for k in names if k not in kinds and k != BOUND]
+        if isinstance(panel, StripPanel):
+            kinds.update(dict.fromkeys(s.kind or s.label for s in panel.strips))
+        else:
+            kinds.update(dict.fromkeys(g.label for g in panel.groups))
+    kinds.pop(BOUND, None)
     out = {k: f"C{i % 10}" for i, k in enumerate(kinds)}
     out[BOUND] = "black"
     return out
@@ -174,19 +177,19 @@ def _draw_strips(ax, panel: StripPanel, colours: dict[str, str]) -> None:
         for seed in s.seeds:
             ys = [v for v in seed if v is not None]
             jitter = rng.uniform(-JITTER / 2, JITTER / 2, len(ys))
-            ax.scatter(x + jitter, ys, s=14, color=colour, alpha=0.55, marker=marker,
-                       linewidths=1.2 if s.kind == BOUND else 0)  # fmt: skip
+            ax.scatter(x + jitter, ys, s=16, color=colour, alpha=0.6, marker=marker,
+                       linewidths=1.2 if s.kind == BOUND else 0, zorder=5)  # fmt: skip
         if s.seed_means:
             ax.scatter([x + JITTER] * len(s.seed_means), s.seed_means, s=30, marker="D",
-                       color=colour, edgecolor="black", linewidths=0.6, zorder=3)  # fmt: skip
+                       color=colour, edgecolor="black", linewidths=0.6, zorder=6)  # fmt: skip
         if s.mean is not None:
             low, high = s.interval or (s.mean, s.mean)
             ax.errorbar([x], [s.mean], yerr=[[s.mean - low], [high - s.mean]], fmt="none",
                         ecolor="black", elinewidth=1.2, capsize=4, zorder=4)  # fmt: skip
             ax.hlines(s.mean, x - 0.3, x + 0.3, color="black", linewidth=2, zorder=4)
         if len(s.values) < s.episodes:
-            ax.annotate(f"{len(s.values)}/{s.episodes}", (x, 1.0), xycoords=ax.get_xaxis_transform(),
-                        ha="center", va="top", fontsize=7, color="red")  # fmt: skip
+            ax.annotate(f"{len(s.values)}/{s.episodes}\ndone", (x, 1.0), ha="center", va="top",
+                        xycoords=ax.get_xaxis_transform(), fontsize=7, color="red")  # fmt: skip
     _strip_axes(ax, panel, xs, colours)
 
 
@@ -199,15 +202,17 @@ def _strip_axes(ax, panel: StripPanel, xs: list[float], colours: dict[str, str])
             statistics.fmean(x for x, s in zip(xs, strips, strict=True) if s.cluster == c)
             for c in clusters
         ]
-        ax.set_xticks(centres, [textwrap.fill(c, 16) for c in clusters], fontsize=8)
+        labels = [textwrap.fill(c, 16, break_long_words=False) for c in clusters]
+        ax.set_xticks(centres, labels, fontsize=8)
         kinds = list(dict.fromkeys(s.kind or s.label for s in strips))
         handles = [
             ax.scatter([], [], color=colours[k], marker="_" if k == BOUND else "o", label=k)
             for k in kinds
         ]
-        ax.legend(handles=handles, fontsize=7, loc="best")
+        ax.legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     else:
-        ax.set_xticks(xs, [textwrap.fill(s.label, 14) for s in strips], fontsize=8)
+        labels = [textwrap.fill(s.label, 10, break_long_words=False) for s in strips]
+        ax.set_xticks(xs, labels, fontsize=8)
     ax.set_xlim(min(xs) - 0.7, max(xs) + 0.7)
     ax.set_ylabel(panel.ylabel)
     ax.set_title(panel.title, fontsize=10)

@@ -4,8 +4,10 @@ Each kind has one rule (``multicrane.core.kinds``; ``rests_on``: the kinds it ma
 
 - **stacked** (a column): at the ground (``z = 1``) on a foundation, above it on a target of a
   ``rests_on`` kind directly under its bottom cell; the support is implied, never named;
-- **named** (a beam): the file names its supports, at least one, each a ``rests_on`` target
-  touching it (``check_stated``, run with the other whole-scenario checks);
+- **named** (a beam, on columns or on other beams): the file names its supports, at least
+  one, each a ``rests_on`` target other than itself that touches it and does not lie above
+  it (``check_stated``, run with the other whole-scenario checks; a cycle of beams on beams
+  is refused by the solvability check);
 - **under some** (a slab): it rests on the ``rests_on`` targets directly under its cells, at
   least one;
 - **under all** (a wall): on the ground only on a foundation strip (a foundation under every
@@ -56,11 +58,22 @@ def check_stated(s: Scenario, tables: list[TomlTable], target_cells: dict[Cell, 
                 )
             for j in c.supports:
                 other = s.components[j]
+                if j == i:
+                    raise t.refuse(
+                        "supports", f"{other.id!r} is this {spec.name} itself, not a "
+                        f"{rests_on_names(spec)} it rests on"
+                    )
                 if other.kind not in spec.rests_on:
                     raise t.refuse("supports", f"{other.id!r} is not a {rests_on_names(spec)}")
-                if not geometry.touches(cells, geometry.pose_cells(*other.target)):
+                under = geometry.pose_cells(*other.target)
+                if not geometry.touches(cells, under):
                     raise t.refuse(
                         "supports", f"the target of {other.id!r} does not touch this {spec.name}"
+                    )
+                if min(z for *_, z in under) > min(z for *_, z in cells):
+                    raise t.refuse(
+                        "supports", f"the target of {other.id!r} lies above this {spec.name}: "
+                        "it rests on what is under or beside it"
                     )
 
 

@@ -148,3 +148,24 @@ def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
     mtime = (run_dir / "model.zip").stat().st_mtime_ns
     assert main(argv) == 0
     assert (run_dir / "model.zip").stat().st_mtime_ns == mtime
+
+
+def test_evaluate_plot_has_the_runs_learning_curve_against_wall_time(paper_run, tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from test_comparison_plot import assert_plausible_png
+
+    from multicrane.reports.comparison_data import curve_panel, run_curves
+
+    out, plot = tmp_path / "eval.json", tmp_path / "eval.png"
+    code = main(["evaluate", "--paper", "E1S1", "--policy", str(paper_run), "optimal",
+                 "--episodes", "2", "--json", str(out), "--plot", str(plot)])  # fmt: skip
+    assert code == 0 and f"plot: {plot}" in capsys.readouterr().out
+    assert_plausible_png(plot)
+    rows = json.loads(out.read_text())
+    assert rows[0]["run"] == str(paper_run) and "run" not in rows[1]
+    best = [e["return"] for e in rows[1]["episodes"]]
+    assert [e["optimal_return"] for e in rows[0]["episodes"]] == pytest.approx(best)
+    panel = curve_panel(run_curves({rows[0]["policy"]: [rows[0]["run"]]}), paper=True)
+    curve = json.loads((paper_run / "result.json").read_text())["curve"]
+    assert panel.xlabel == "training wall time (s)"
+    assert panel.groups[0].runs == [[(p["seconds"], p["return_mean"]) for p in curve]]

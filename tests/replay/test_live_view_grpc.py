@@ -11,10 +11,8 @@ rerun. (The in-memory sink is tested in tests/envs/test_env_options.py.)
 from __future__ import annotations
 
 import re
-import shutil
 import socket
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -22,15 +20,15 @@ import numpy as np
 import pytest
 
 import multicrane
+from multicrane.render.viewers import find_viewer
 
 pytest.importorskip("rerun", reason="rerun not installed (pip install 'multicrane[replay]')")
 
 
 def rerun_command() -> str:
-    here = Path(sys.executable).parent / "rerun"
-    found = str(here) if here.exists() else shutil.which("rerun")
+    found = find_viewer()
     if found is None:
-        pytest.skip("the rerun command is not on the PATH")
+        pytest.skip("the rerun command is neither on the PATH nor beside Python")
     return found
 
 
