@@ -15,8 +15,9 @@ primary beams before the secondary ones on them), then the panels, lowest first.
 Slabs, walls and plates (``panels``, ``multicrane.ifc.panels``): ``"components"`` (the
 default: panel components ``kind = "slab"`` / ``"wall"`` given by two opposite corner cells,
 resting on exactly the targets under them, lying flat in an extra yard strip; a wall on the
-ground gets a foundation strip under it), ``"obstacles"`` (their cells, less any column or
-beam target, become obstacle boxes) or ``"skip"`` (listed in the skip report).
+ground gets a foundation strip under it), ``"obstacles"`` (their cells, less those of column
+and beam targets and above them, become obstacle boxes) or ``"skip"`` (listed in the skip
+report).
 Everything left out is in ``IfcImport.skipped`` with its type, GlobalId, name and reason.
 """
 

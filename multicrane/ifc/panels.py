@@ -13,10 +13,10 @@
   on the ground (the import lays a foundation strip under it) or with a slab or beam target
   under every cell of its bottom row (else "rests on nothing" or "partly supported"). Its
   supports are exactly the targets under it, so the loader accepts them as written.
-- ``"obstacles"``: the panel's cells, less those of columns, beams and earlier panels, become
-  obstacle boxes (``boxes``). Obstacles are there from the start: a panel that a beam passes
-  through, with panel cells right over that beam, is skipped instead (the beam could neither
-  be lowered into place nor slid in under it).
+- ``"obstacles"``: the panel's cells become obstacle boxes (``boxes``), less those of earlier
+  panels and those of columns and beams or above one: obstacles are there from the start, and
+  every column and beam is lowered into place from above, so a floor slab keeps a shaft over
+  each target under it.
 - ``"skip"``: every panel is reported as skipped.
 
 ``panel_yard`` moves the accepted panels' targets onto the site and lays their starts flat in
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from multicrane.core.kinds import HORIZONTAL_BAR, UNDER_ALL, kind_named, rests_on_names
+from multicrane.core.kinds import UNDER_ALL, kind_named, rests_on_names
 from multicrane.core.schema import Box, Cell
 from multicrane.ifc.read import Skipped
 from multicrane.ifc.scenario_text import PanelSpec
@@ -51,6 +51,9 @@ def place_panels(b: Building, members: list[int], mode: str, skipped: list[Skipp
     ``b.parts`` is replaced by its trimmed self with its supports (part indices)."""
     use = Panels()
     taken = {c: i for i in members for c in b.parts[i].cells()}
+    lowest: dict[tuple[int, int], int] = {}  # per (x, y): the height of the lowest member cell
+    for x, y, z in taken:
+        lowest[x, y] = min(z, lowest.get((x, y), z))
     panels = [i for i, p in enumerate(b.parts) if kind_named(p.kind).panel]
     for i in sorted(panels, key=lambda i: (min(b.parts[i].lo[2], b.parts[i].hi[2]), i)):
         part = b.parts[i]
@@ -58,11 +61,8 @@ def place_panels(b: Building, members: list[int], mode: str, skipped: list[Skipp
         if mode == "skip":
             skipped.append(Skipped(e.ifc_type, e.global_id, e.name, "a panel (--panels skip)"))
         elif mode == "obstacles":
-            cells = [c for c in part.cells() if c not in taken]
-            walled = _walled_in(b, part, cells, taken)
-            if walled is not None:
-                skipped.append(Skipped(e.ifc_type, e.global_id, e.name, walled))
-                continue
+            cells = [(x, y, z) for x, y, z in part.cells()
+                     if (x, y, z) not in taken and z < lowest.get((x, y), z + 1)]  # fmt: skip
             taken.update(dict.fromkeys(cells, i))
             use.obstacles += boxes(cells)
             use.obstacle_parts.append(i)
@@ -75,22 +75,6 @@ def place_panels(b: Building, members: list[int], mode: str, skipped: list[Skipp
             taken.update(dict.fromkeys(part.cells(), i))
             use.specs.append((i, part))
     return use
-
-
-def _walled_in(b: Building, part: Part, cells: list[Cell], taken: dict[Cell, int]) -> str | None:
-    """Why panel ``part`` cannot be an obstacle of these ``cells``: a beam passes through it
-    with panel cells right over it, so that the beam could neither be lowered into place nor
-    slid in under them; or None."""
-    spare = set(cells)
-    for c in part.cells():
-        j = taken.get(c)
-        if j is not None and kind_named(b.parts[j].kind).shape == HORIZONTAL_BAR and any(
-            (x, y, z + 1) in spare for x, y, z in b.parts[j].cells()
-        ):
-            o = b.parts[j].element
-            return (f"{o.ifc_type} {o.global_id} {o.name!r} passes through it: as an obstacle "
-                    "it would wall that beam in (try --panels components)")  # fmt: skip
-    return None
 
 
 def _as_component(b: Building, part: Part, taken: dict[Cell, int]) -> tuple[Part, str | None]:
