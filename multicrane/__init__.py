@@ -63,6 +63,9 @@ def _register() -> None:
             gymnasium.register(
                 env_id,
                 entry_point="multicrane.envs.paper_env:PaperAssemblyEnv",
+                # gymnasium.make_vec(env_id, num_envs=B): B copies in compiled kernels
+                # (multicrane.vector, docs/vector.md; numba is imported only then).
+                vector_entry_point="multicrane.vector.paper_vector_env:PaperVectorEnv",
                 kwargs={"config": config},
                 order_enforce=False,
                 disable_env_checker=True,

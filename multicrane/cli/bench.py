@@ -18,6 +18,7 @@ DESCRIPTION = """Environment throughput: joint steps per second under random leg
     multicrane bench --scenario hall-4c --cranes 4 --steps 50000
     multicrane bench --all          # every shipped scenario, 1 and 4 cranes
     multicrane bench --paper E1S1   # the single-agent paper mode (Gymnasium)
+    multicrane bench --vector       # the vector paper env (B copies, numba) beside it
     multicrane bench --decisions task --scenario hall-4c --cranes 4   # task-level rounds
     multicrane bench --scenario set:test-small --steps 2000   # every site of a named set
     multicrane bench --scaling      # costs of generated sites of 3-121 components, 1-16 cranes
@@ -33,6 +34,13 @@ policy's call (planning included: the prioritized rule's space-time searches) pl
 reports rounds per second and the mean and 95th percentile milliseconds per round, for the
 task-level prioritized planner and for random legal tasks, over whole episodes (seeds 0, 1,
 ...) until ``--steps`` rounds have been timed (resets excluded).
+
+With ``--vector`` it times the vector paper env (``multicrane.vector``, docs/vector.md) beside
+the one-site env, in one process on one core: steps per second for B = 1, 64, 1024 and 4096
+copies under uniform random moves drawn by a compiled sampler, the bytes of state and
+buffers per copy, and the seconds a fresh process needs to its first step, with an empty
+numba cache (the compile) and with the cache the first left. Configurations: ``--paper``'s,
+else E1S1 and E4S1; each figure is the median of three interleaved rounds.
 
 With ``--scaling`` it measures how the costs grow with the site (``multicrane.reports.scaling``):
 load, reset, joint step per crane (200 random legal steps) and the prioritized planner's
@@ -55,6 +63,8 @@ def register(sub) -> None:
     p.add_argument("--paper", metavar="CONFIG", nargs="*", help="paper mode configurations")
     p.add_argument("--decisions", choices=tuple(DECISION_MODES), default=DEFAULT_DECISIONS,
                    help="task: time task-level decision rounds (planning included)")
+    p.add_argument("--vector", action="store_true",
+                   help="the vector paper env (multicrane.vector) beside the one-site env")
     p.add_argument("--scaling", action="store_true",
                    help="costs of generated sites of growing size (multicrane.reports.scaling)")
     p.add_argument("--full", action="store_true", help="with --scaling: the full grid")
@@ -169,11 +179,38 @@ def run_scaling(args: argparse.Namespace) -> int:
     return 0
 
 
+VECTOR_COPIES = (1, 64, 1024, 4096)
+
+
+def run_vector(args: argparse.Namespace) -> int:
+    """The vector paper env beside the one-site env (see DESCRIPTION)."""
+    from multicrane.vector import bench as vector
+
+    print(f"{'config':<8} {'env':<9} {'copies':>6} {'steps/s':>12} {'bytes/copy':>11}")
+    configs = args.paper or ("E1S1", "E4S1")
+    for config in configs:
+        rounds: dict[int, list[float]] = {0: [], **{b: [] for b in VECTOR_COPIES}}
+        for _ in range(3):  # interleaved: one-site, then each B, three times
+            rounds[0].append(paper_steps_per_second(config, args.steps))
+            for b in VECTOR_COPIES:
+                rounds[b].append(vector.steps_per_second(config, b))
+        print(f"{config:<8} {'one-site':<9} {1:>6} {np.median(rounds[0]):>12,.0f}")
+        for b in VECTOR_COPIES:
+            print(f"{config:<8} {'vector':<9} {b:>6} {np.median(rounds[b]):>12,.0f} "
+                  f"{vector.bytes_per_copy(config, b):>11,.0f}")  # fmt: skip
+    first, second = vector.start_seconds(configs[0])  # the kernels are the same for all
+    print(f"first step of a fresh process: {first:.1f} s with an empty numba cache (the "
+          f"compile), {second:.2f} s with the cache it left")  # fmt: skip
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     import multicrane
 
     if args.scaling:
         return run_scaling(args)
+    if args.vector:
+        return run_vector(args)
     if decision_mode(args.decisions).task_level:
         return run_task(args)
 

@@ -1,0 +1,43 @@
+"""``multicrane bench --vector`` and its measurements (``multicrane.vector.bench``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from multicrane.cli import main
+from multicrane.vector import bench
+from multicrane.vector.pcg64 import state_of
+
+
+def test_the_sampler_draws_every_move_uniformly():
+    rng = state_of(np.random.default_rng(0))[None].copy()
+    moves = np.zeros(60_000, dtype=np.int64)
+    bench.sample_moves(rng, moves)
+    counts = np.bincount(moves, minlength=7)
+    assert counts[6] == 0 and (abs(counts[:6] - 10_000) < 400).all()
+
+
+def test_measurements():
+    assert bench.steps_per_second("E1S1", 64, seconds=0.05) > 0
+    per_copy = bench.bytes_per_copy("E1S1", 256)
+    assert 5_000 < per_copy <= 64 * 1024  # issue 31: at most 64 KB per copy
+
+
+@pytest.mark.long
+def test_a_second_process_starts_from_the_cache():
+    first, second = bench.start_seconds("E1S1")
+    assert second < first
+
+
+def test_the_command_prints_both_envs(monkeypatch, capsys):
+    monkeypatch.setattr(bench, "steps_per_second", lambda config, b: 1000.0 * b)
+    monkeypatch.setattr(bench, "start_seconds", lambda config: (30.0, 1.5))
+    assert main(["bench", "--vector", "--paper", "E2S2", "--steps", "50"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split() == ["config", "env", "copies", "steps/s", "bytes/copy"]
+    assert out[1].split()[:3] == ["E2S2", "one-site", "1"]
+    assert [line.split()[2:4] for line in out[2:6]] == [
+        ["1", "1,000"], ["64", "64,000"], ["1024", "1,024,000"], ["4096", "4,096,000"]
+    ]
+    assert "30.0 s with an empty numba cache" in out[6] and "1.50 s with the cache" in out[6]
