@@ -68,6 +68,7 @@ def _geometry(width, depth, height, margin, longest, sides, lanes, reach_len=0):
     top = thick if sides >= 2 else 2
     if sides < 4:  # a wider site keeps the yard from growing into a long thin strip
         left = max(left, (2 * margin + reach_len - width - 2 + 1) // 2)
+        left = max(left, (2 * margin + longest - width - 2 + 1) // 2)  # a lane holds the longest
     X = left + width + 2 + left
     Y = bottom + depth + 2 + top
     area = (left, bottom, left + width + 1, bottom + depth + 1)

@@ -285,7 +285,7 @@ class Carrier:
 
     def _search(
         self, comp: int, rel: tuple[int, ...], start: int, t_start: int, goal: int,
-        stops: set[int], res: ReservationTable, crane: int,
+        stops: set[int], res: ReservationTable, crane: int, claim: bool = True,
     ) -> list[int] | None:  # fmt: skip
         """Space-time A* (counted in ``stats``): positions from ``t_start`` to the arrival."""
         self.stats["searches"] += 1
@@ -295,7 +295,7 @@ class Carrier:
         h = self._shapes.heuristic(sim, rel, goal, zone)
         path, expansions = space_time_search(
             res, comp, rel, start, t_start, goal, stops, ok, h,
-            self._deltas, self.slack, self.max_expansions,
+            self._deltas, self.slack, self.max_expansions, lifted_onto_goal_arrives=claim,
         )  # fmt: skip
         self.stats["expansions"] += expansions
         if path is None:
@@ -320,7 +320,7 @@ class Carrier:
         options.sort()
         for _, t, goal in options[:3]:
             stops = self._stops(comp, rel, t)
-            path = self._search(comp, rel, start, T, goal, stops, res, crane)
+            path = self._search(comp, rel, start, T, goal, stops, res, crane, claim=False)
             if path is not None:
                 self._replace_transit_plan(comp, crane, t, T, path, rel, res)
                 return True

@@ -264,11 +264,15 @@ def space_time_search(
     deltas: list[int],
     slack: int,
     max_expansions: int,
+    lifted_onto_goal_arrives: bool = True,
 ) -> tuple[list[int] | None, int]:
     """Space-time A*: positions from ``t_start`` (at ``start``) to the arrival at ``goal``.
 
     ``ok``: where the shape fits the base; ``h``: distances to the goal. Returns the path
-    (or None) and the number of states expanded.
+    (or None) and the number of states expanded. A component arrives by a lift or a move
+    into its target pose: a claim lifted onto its goal arrives there
+    (``lifted_onto_goal_arrives``), but a component already in transit at its goal did not
+    (its target was not ready when it came): its path leaves the goal and comes back.
     """
     h0 = h[start]
     if h0 < 0 or not ok[goal]:
@@ -276,7 +280,7 @@ def space_time_search(
     free_from = goal_free_from(res, comp, rel, goal, t_start)
     if free_from is None:
         return None, 0
-    if start == goal:
+    if start == goal and lifted_onto_goal_arrives:
         return ([start] if t_start >= free_from else None), 0
     t_cap = t_start + h0 + slack
     found, parent, expansions = _astar(
@@ -348,7 +352,7 @@ def _astar(
         if conflict_at(p, t1, t1):
             continue  # someone enters these cells at t1: it had to leave before
         key = (p, t1)
-        if key not in parent:
+        if p != goal and key not in parent:  # standing in the goal pose is no arrival
             parent[key] = (p, t)
             heapq.heappush(heap, (t1 - t_start + hp, hp, t1, p))
         for d in deltas:

@@ -263,3 +263,15 @@ def test_obstacles_keep_a_shaft_over_every_column_and_beam(tmp_path):
             assert not any((x, y, z + k) in blocked for x, y, z in geometry.pose_cells(*c.target)
                            for k in range(s.size[2]))  # fmt: skip
         assert _finished(s)
+
+
+@pytest.mark.parametrize("yard", ["one", "two"])
+def test_a_component_longer_than_the_building_is_wide_gets_a_yard_lane(tmp_path, yard):
+    """A 45 m tower column beside a portal frame (found by the fuzz test: the yard's lanes
+    grew in number, never in length, and the layout never ended)."""
+    f = frame(1, 0, 1)
+    f.column(None, 12, 4, 0, 45, name="tower")
+    s = import_ifc(f.write(tmp_path / "tower.ifc"), cell=1.5, yard=yard).scenario
+    tower = max(s.components, key=lambda c: c.length)
+    assert tower.length == 30 and s.size[0] >= 30
+    assert _finished(s)
