@@ -44,7 +44,7 @@ def roof_frame(tmp_path_factory) -> Path:
     return frame(3, 2, 2, roof=True).write(tmp_path_factory.mktemp("roof") / "frame.ifc")
 
 
-@pytest.mark.parametrize("cranes", [1, 2, 4])
+@pytest.mark.parametrize("cranes", [1, 2, 3, 4])
 def test_a_frame_with_a_roof_slab_imports_with_the_defaults_and_is_built(roof_frame, cranes):
     s = import_ifc(roof_frame, cranes=cranes).scenario
     kinds = [c.kind for c in s.components]
