@@ -48,13 +48,17 @@ SCENARIOS: list[str] = multicrane.scenario_names()
 
 
 def pytest_collection_modifyitems(config, items):
-    """Skip the ``long`` tests unless the run selects them (``-m long``), as ``fuzz`` does."""
-    if "long" in (config.getoption("-m") or ""):
-        return
-    skip = pytest.mark.skip(reason="a long run: bash tools/test.sh -m long (CI runs it)")
-    for item in items:
-        if item.get_closest_marker("long") is not None:
-            item.add_marker(skip)
+    """Skip the ``long`` and ``fuzz`` tests unless the run selects them (``-m long``,
+    ``-m fuzz``)."""
+    selected = config.getoption("-m") or ""
+    for marker, command in (("long", "bash tools/test.sh -m long"),
+                            ("fuzz", "bash tools/test.sh -m fuzz")):  # fmt: skip
+        if marker in selected:
+            continue
+        skip = pytest.mark.skip(reason=f"a {marker} run: {command} (CI runs it)")
+        for item in items:
+            if item.get_closest_marker(marker) is not None:
+                item.add_marker(skip)
 
 
 def sizes(default: int, full: int) -> list:

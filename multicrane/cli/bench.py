@@ -18,7 +18,7 @@ DESCRIPTION = """Environment throughput: joint steps per second under random leg
     multicrane bench --scenario hall-4c --cranes 4 --steps 50000
     multicrane bench --all          # every shipped scenario, 1 and 4 cranes
     multicrane bench --paper E1S1   # the single-agent paper mode (Gymnasium)
-    multicrane bench --vector       # the vector paper env (B copies, numba) beside it
+    multicrane bench --vector       # the vector paper and motion envs (numba) beside them
     multicrane bench --decisions task --scenario hall-4c --cranes 4   # task-level rounds
     multicrane bench --scenario set:test-small --steps 2000   # every site of a named set
     multicrane bench --scaling      # costs of generated sites of 3-121 components, 1-16 cranes
@@ -40,7 +40,9 @@ the one-site env, in one process on one core: steps per second for B = 1, 64, 10
 copies under uniform random moves drawn by a compiled sampler, the bytes of state and
 buffers per copy, and the seconds a fresh process needs to its first step, with an empty
 numba cache (the compile) and with the cache the first left. Configurations: ``--paper``'s,
-else E1S1 and E4S1; each figure is the median of three interleaved rounds.
+else E1S1 and E4S1; each figure is the median of three interleaved rounds. Then the same
+for the vector motion env (``MotionVectorEnv``) on hall-4c with 4 cranes, joint steps per
+second under uniform random legal actions, beside the one-site ``parallel_env``.
 
 With ``--scaling`` it measures how the costs grow with the site (``multicrane.reports.scaling``):
 load, reset, joint step per crane (200 random legal steps) and the prioritized planner's
@@ -201,6 +203,27 @@ def run_vector(args: argparse.Namespace) -> int:
     first, second = vector.start_seconds(configs[0])  # the kernels are the same for all
     print(f"first step of a fresh process: {first:.1f} s with an empty numba cache (the "
           f"compile), {second:.2f} s with the cache it left")  # fmt: skip
+    return run_vector_motion(args)
+
+
+def run_vector_motion(args: argparse.Namespace) -> int:
+    """The vector motion env (hall-4c, 4 cranes) beside the one-site env (see DESCRIPTION)."""
+    from multicrane.vector import bench as vector
+
+    scenario, cranes = "hall-4c", 4
+    print(f"{'scenario':<8} {'env':<9} {'copies':>6} {'joint steps/s':>13} {'bytes/copy':>11}")
+    rounds: dict[int, list[float]] = {0: [], **{b: [] for b in VECTOR_COPIES}}
+    for _ in range(3):  # interleaved, as above
+        rounds[0].append(joint_steps_per_second(scenario, cranes, args.steps // 4))
+        for b in VECTOR_COPIES:
+            rounds[b].append(vector.motion_steps_per_second(scenario, cranes, b))
+    print(f"{scenario:<8} {'one-site':<9} {1:>6} {np.median(rounds[0]):>13,.0f}")
+    for b in VECTOR_COPIES:
+        print(f"{scenario:<8} {'vector':<9} {b:>6} {np.median(rounds[b]):>13,.0f} "
+              f"{vector.motion_bytes_per_copy(scenario, cranes, b):>11,.0f}")  # fmt: skip
+    first, second = vector.start_seconds(scenario, cranes)
+    print(f"motion env, first step of a fresh process: {first:.1f} s with an empty numba "
+          f"cache, {second:.2f} s with the cache it left")  # fmt: skip
     return 0
 
 

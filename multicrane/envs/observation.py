@@ -267,22 +267,19 @@ class Observer:
             return (1 << IN_TRANSIT) | over
         return 1 << AT_TARGET
 
+    def _clear_component(self, c: int) -> None:
+        """Take a component's bits off the cells it was painted on."""
+        self._paint(*self._painted[c], 0, [])
+        self._painted[c] = ([], 0)
+
     def _paint_component(self, c: int, ready: bool) -> None:
+        """Paint a cleared component where it is now, and its table row."""
         st = self.sim.state
-        old_cells, old_bits = self._painted[c]
-        cells = st.cells[c]
-        status = int(st.status[c])
+        cells, status = st.cells[c], int(st.status[c])
         bits = self._component_bits(c, status, ready)
         if not st.delivered[c]:  # off site: nothing of it is known but that
             cells, bits = [], 0
-        byte, bm, xy, dirty = self._byte, self._bits, self._xy, self._dirty_columns
-        keep = ~old_bits & 0xFF
-        for j in old_cells:  # every component cell lies inside the site
-            bm[byte[j]] &= keep
-            dirty.add(xy[j])
-        for j in cells:
-            bm[byte[j]] |= bits
-            dirty.add(xy[j])
+        self._paint([], 0, bits, cells)
         self._painted[c] = (cells, bits)
         if not cells:
             self.table[c] = 0.0
@@ -313,6 +310,10 @@ class Observer:
             changed = changed | (ready_now ^ self._ready)
         self._ready = ready_now
         filled, target_cells = sim.state.filled, sim.site.target_cells
+        # Every old cell is cleared before any new one is painted: a component may move into
+        # a cell another one left in the same step.
+        for c in changed:
+            self._clear_component(c)
         for c in changed:
             self._paint_component(c, c in ready_now)
             t = int(filled[c])  # a target is filled only when a component arrives at it

@@ -1,8 +1,10 @@
-"""Throughput of the vector paper env: steps per second, bytes per copy, compile and start times.
+"""Throughput of the vector envs: steps per second, bytes per copy, compile and start times.
 
-``multicrane bench --vector`` prints these beside the one-site env's figures. Random moves
-are drawn by a compiled sampler (``sample_moves``), so the clock sees ``env.step`` (its
-checks, the kernel, the infos) and not a Python loop over the copies.
+``multicrane bench --vector`` prints these beside the one-site envs' figures. Random actions
+are drawn by compiled samplers (``sample_moves``: uniform moves for the paper env;
+``sample_legal``: a uniform legal action per crane from the masks for the motion env), so
+the clock sees ``env.step`` (its checks, the kernel, the infos) and not a Python loop over
+the copies.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 
 from multicrane.core.codes import N_MOVES
 from multicrane.vector.compiled import kernel
+from multicrane.vector.motion_vector_env import MotionVectorEnv
 from multicrane.vector.paper_state import nbytes
 from multicrane.vector.paper_vector_env import PaperVectorEnv
 from multicrane.vector.pcg64 import bounded, state_of
@@ -32,6 +35,16 @@ env.reset(seed=0)
 env.step(np.zeros(1, dtype=np.int64))
 print(time.perf_counter() - begun)
 """
+_FIRST_MOTION_STEP = """
+import time
+begun = time.perf_counter()
+import numpy as np
+from multicrane.vector.motion_vector_env import MotionVectorEnv
+env = MotionVectorEnv(1, {scenario!r}, n_cranes={cranes!r})
+env.reset(seed=0)
+env.step(np.full((1, env.n_cranes), 6, dtype=np.int64))
+print(time.perf_counter() - begun)
+"""
 
 
 @kernel
@@ -39,6 +52,52 @@ def sample_moves(rng, out):
     """Uniform random moves into ``out`` from the generator in ``rng[0]``."""
     for i in range(len(out)):
         out[i] = bounded(rng, 0, N_MOVES)
+
+
+@kernel
+def sample_legal(rng, masks, out):
+    """A uniform legal action per copy and crane into ``out`` ([B, N]) from the masks
+    ([B, N, A]), drawn from the generator in ``rng[0]``."""
+    for b in range(masks.shape[0]):
+        for k in range(masks.shape[1]):
+            n = 0
+            for a in range(masks.shape[2]):
+                n += masks[b, k, a]
+            pick = bounded(rng, 0, n)
+            for a in range(masks.shape[2]):
+                if masks[b, k, a]:
+                    if pick == 0:
+                        out[b, k] = a
+                        break
+                    pick -= 1
+
+
+def motion_steps_per_second(
+    scenario: str, cranes: int | None, num_envs: int, seconds: float = 0.5, seed: int = 0
+) -> float:
+    """Joint copy-steps per second of ``MotionVectorEnv.step`` under uniform random legal
+    actions (resets included when episodes end), timed over at least ``seconds``."""
+    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes)
+    env.reset(seed=seed)
+    rng = state_of(np.random.default_rng(seed))[None].copy()
+    actions = np.zeros((num_envs, env.n_cranes), dtype=np.int64)
+    masks = env.buffers.masks  # the env's own, up to date after every step
+    sample_legal(rng, masks, actions)
+    env.step(actions)
+    calls, begun = 0, time.perf_counter()
+    while True:
+        sample_legal(rng, masks, actions)
+        env.step(actions)
+        calls += 1
+        elapsed = time.perf_counter() - begun
+        if elapsed >= seconds:
+            return calls * num_envs / elapsed
+
+
+def motion_bytes_per_copy(scenario: str, cranes: int | None, num_envs: int) -> float:
+    """Bytes of the motion env's state and buffers per copy."""
+    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes)
+    return (nbytes(env.state) + nbytes(env.buffers)) / num_envs
 
 
 def steps_per_second(config: str, num_envs: int, seconds: float = 0.5, seed: int = 0) -> float:
@@ -66,10 +125,14 @@ def bytes_per_copy(config: str, num_envs: int) -> float:
     return (nbytes(env.state) + nbytes(env.buffers)) / num_envs
 
 
-def start_seconds(config: str) -> tuple[float, float]:
+def start_seconds(config: str, cranes: int | None = None) -> tuple[float, float]:
     """(first process, second process): seconds from a fresh Python's first line to its
-    first step, with an empty numba cache (the compile) and then with the cache it left."""
-    script = _FIRST_STEP.format(config=config)
+    first step, with an empty numba cache (the compile) and then with the cache it left;
+    ``cranes`` given: of the motion env on scenario ``config``, else the paper env."""
+    if cranes is None:
+        script = _FIRST_STEP.format(config=config)
+    else:
+        script = _FIRST_MOTION_STEP.format(scenario=config, cranes=cranes)
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         runs = [

@@ -25,7 +25,7 @@ from multicrane.vector.paper_reset import reset_copies
 from multicrane.vector.paper_site import compile_site
 from multicrane.vector.paper_state import allocate
 from multicrane.vector.paper_step import step_batch
-from multicrane.vector.pcg64 import generator_of, state_of
+from multicrane.vector.pcg64 import generator_of, seed_states
 
 MOVES_TEXT = "0..5 (x-1, y-1, x+1, y+1, up, down)"
 
@@ -102,7 +102,7 @@ class PaperVectorEnv(VectorEnv):
         """Reset every copy (see the class doc for ``seed``); ``options`` are ignored, as
         ``PaperAssemblyEnv`` ignores them."""
         if seed is not None or not self._started:
-            self._seed(seed)
+            seed_states(self.state.rng, seed)
         self._started = True
         self._run_resets(self._all)
         buf = self.buffers
@@ -112,18 +112,6 @@ class PaperVectorEnv(VectorEnv):
         buf.truncated[:] = False
         self._done[:] = False
         return self._out(buf.obs), self._infos()
-
-    def _seed(self, seed) -> None:
-        n = self.num_envs
-        if seed is None or isinstance(seed, int | np.integer):
-            children = np.random.SeedSequence(seed).spawn(n)
-        else:
-            seeds = list(seed)
-            if len(seeds) != n:
-                raise ValueError(f"reset(): give one seed per copy ({n}), got {len(seeds)}")
-            children = [np.random.SeedSequence(s) for s in seeds]
-        for b, child in enumerate(children):
-            self.state.rng[b] = state_of(np.random.Generator(np.random.PCG64(child)))
 
     def _run_resets(self, which: np.ndarray) -> None:
         failed = reset_copies(self.site, self.state, self.buffers, which, self.mask_blocked_moves)

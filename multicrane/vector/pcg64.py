@@ -11,7 +11,9 @@ numpy's would. The kernels reproduce numpy (2.x) draw by draw:
   which use and refill the buffer; ``n == 1`` draws nothing);
 - ``pairwise_sum``: ``ndarray.sum()`` of a float64 vector (numpy's pairwise summation);
 - ``choice``: ``Generator.choice(len(w), p=w / w.sum())``: ``p.cumsum()``, divided by its last
-  entry, searched (``side="right"``) with one ``random()`` draw.
+  entry, searched (``side="right"``) with one ``random()`` draw;
+- ``permutation``: ``Generator.permutation(n)`` (a Fisher-Yates shuffle of ``arange(n)``
+  from the last entry down, each swap index drawn by ``interval``, numpy's masked rejection).
 
 tests/vector/test_pcg64.py checks each against numpy on millions of draws.
 """
@@ -47,6 +49,23 @@ def state_of(generator: np.random.Generator) -> np.ndarray:
     buffer = (int(s["has_uint32"]) << 32) | int(s["uinteger"])
     words = (state >> 64, state & _MASK64, inc >> 64, inc & _MASK64, buffer)
     return np.array(words, dtype=np.uint64)
+
+
+def seed_states(rng: np.ndarray, seed) -> None:
+    """Seed every row of ``rng`` ([B, 5]) as the vector envs' ``reset(seed=...)`` does: an
+    int or None gives copy ``i`` the ``i``-th child of ``np.random.SeedSequence(seed)``; a
+    sequence of B seeds gives copy ``i`` the generator of ``np.random.default_rng(seed[i])``
+    (what a one-site env's ``reset(seed=seed[i])`` uses)."""
+    n = len(rng)
+    if seed is None or isinstance(seed, int | np.integer):
+        children = np.random.SeedSequence(seed).spawn(n)
+    else:
+        seeds = list(seed)
+        if len(seeds) != n:
+            raise ValueError(f"reset(): give one seed per copy ({n}), got {len(seeds)}")
+        children = [np.random.SeedSequence(s) for s in seeds]
+    for b, child in enumerate(children):
+        rng[b] = state_of(np.random.Generator(np.random.PCG64(child)))
 
 
 def generator_of(words: np.ndarray) -> np.random.Generator:
@@ -127,26 +146,32 @@ def bounded(rng, b, n):
 
 
 @kernel
-def _block_sum(a, start, n):
-    """numpy's pairwise sum of a block of at most ``PW_BLOCKSIZE`` entries."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[start + i]
-        return res
-    r = np.empty(8)
-    for j in range(8):
-        r[j] = a[start + j]
-    i = 8
-    while i < n - (n % 8):
-        for j in range(8):
-            r[j] += a[start + i + j]
-        i += 8
-    res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-    while i < n:
-        res += a[start + i]
-        i += 1
-    return res
+def interval(rng, b, top):
+    """numpy's ``random_interval(top)`` for ``0 <= top < 2**32``: a uniform integer in
+    ``0..top``, 32-bit draws masked to the smallest all-ones mask covering ``top`` and
+    rejected while above it."""
+    if top == 0:
+        return 0
+    mask = np.uint64(top)
+    mask |= mask >> _ONE
+    mask |= mask >> np.uint64(2)
+    mask |= mask >> np.uint64(4)
+    mask |= mask >> np.uint64(8)
+    mask |= mask >> np.uint64(16)
+    value = next_uint32(rng, b) & mask
+    while value > np.uint64(top):
+        value = next_uint32(rng, b) & mask
+    return np.int64(value)
+
+
+@kernel
+def permutation(rng, b, out, n):
+    """``Generator.permutation(n)`` into ``out[:n]`` (``n < 2**32``)."""
+    for i in range(n):
+        out[i] = i
+    for i in range(n - 1, 0, -1):
+        j = interval(rng, b, i)
+        out[i], out[j] = out[j], out[i]
 
 
 @kernel

@@ -32,7 +32,9 @@ def test_a_second_process_starts_from_the_cache():
 
 def test_the_command_prints_both_envs(monkeypatch, capsys):
     monkeypatch.setattr(bench, "steps_per_second", lambda config, b: 1000.0 * b)
-    monkeypatch.setattr(bench, "start_seconds", lambda config: (30.0, 1.5))
+    monkeypatch.setattr(bench, "start_seconds", lambda config, cranes=None: (30.0, 1.5))
+    monkeypatch.setattr(bench, "motion_steps_per_second", lambda scenario, cranes, b: 10.0 * b)
+    monkeypatch.setattr(bench, "motion_bytes_per_copy", lambda scenario, cranes, b: 2e5)
     assert main(["bench", "--vector", "--paper", "E2S2", "--steps", "50"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert out[0].split() == ["config", "env", "copies", "steps/s", "bytes/copy"]

@@ -1,0 +1,167 @@
+"""The motion mode's observations in kernels: every crane's vector, written where it changed.
+
+The layout is ``multicrane.envs.observation``'s (``MULTI_AGENT_PLANES``, no events block):
+seven shared planes, two per-crane planes, the component table and the crane vector, one
+``[N, D]`` block per copy. The shared planes and the table are a function of the state, so a
+step recomputes only the plan columns the rules marked (``buf.dirty``) and the table rows of
+the components they marked (``buf.changed``), plus those whose claimability flipped, and
+writes them into every crane's row; the per-crane parts are rewritten for every crane.
+"""
+
+from __future__ import annotations
+
+from multicrane.envs.observation import COMPONENT_FEATURES, N_OWN, N_SHARED
+from multicrane.vector.compiled import kernel
+from multicrane.vector.motion_rules import claimable, mark_component
+from multicrane.vector.paper_rules import ARRIVED, ASSEMBLED, IN_TRANSIT, INITIAL
+
+_OBSTACLE, _INITIAL, _READY, _IN_TRANSIT, _AT_TARGET, _FREE_TARGET, _OVER_LIMIT = range(N_SHARED)
+
+
+@kernel
+def refresh_claimable(site, st, buf, b):
+    """Claimability of every component now; a component whose flag flipped is repainted."""
+    for c in range(len(site.length)):
+        now = claimable(site, st, b, c)
+        if now != st.claimable[b, c]:
+            st.claimable[b, c] = now
+            mark_component(site, st, buf, b, c)
+
+
+@kernel
+def _write_row(site, st, obs, b, c):
+    """Component ``c``'s table row in every crane's observation."""
+    s = st.status[b, c]
+    last = st.cells[b, c, site.length[c] - 1]
+    first = st.cells[b, c, 0]
+    o = site.rows_start + c * COMPONENT_FEATURES
+    for k in range(site.n_cranes):
+        obs[b, k, o] = s == INITIAL
+        obs[b, k, o + 1] = s == IN_TRANSIT
+        obs[b, k, o + 2] = s == ARRIVED
+        obs[b, k, o + 3] = s == ASSEMBLED
+        obs[b, k, o + 4] = st.claimable[b, c]
+        obs[b, k, o + 5] = st.holder[b, c] >= 0
+        obs[b, k, o + 6] = st.held[b, k] == c
+        obs[b, k, o + 7] = site.beam[c]
+        for a in range(3):
+            obs[b, k, o + 8 + a] = site.scaled[first, a]
+            obs[b, k, o + 11 + a] = site.scaled[last, a]
+
+
+@kernel
+def _refresh_column(site, st, buf, b, p):
+    """The seven shared planes of plan column ``p`` from the cells above it, into every
+    crane's observation: each holds the top height of a cell that qualifies."""
+    tops = buf.tops
+    for f in range(N_SHARED):
+        tops[f] = 0
+    base = site.column_base[p]
+    for z in range(1, site.height + 1):
+        j = base + z
+        v = st.occ[b, j]
+        if v < 0:
+            if site.obstacle[j]:
+                tops[_OBSTACLE] = z
+        elif v > 0:
+            c = v - 1
+            s = st.status[b, c]
+            if s == INITIAL:
+                tops[_INITIAL] = z
+                if st.claimable[b, c]:
+                    tops[_READY] = z
+            elif s == IN_TRANSIT:
+                tops[_IN_TRANSIT] = z
+                if st.moves[b, c] > site.move_limit:
+                    tops[_OVER_LIMIT] = z
+            else:
+                tops[_AT_TARGET] = z
+        t = site.target_at[j]
+        if t >= 0 and st.filled_by[b, t] < 0:
+            tops[_FREE_TARGET] = z
+    o = p * N_SHARED
+    for k in range(site.n_cranes):
+        for f in range(N_SHARED):
+            buf.obs[b, k, o + f] = site.plane_z[tops[f]]
+
+
+@kernel
+def _own_plane(site, buf, b, k, j, channel):
+    """Raise one per-crane plane entry to the height of cell ``j`` (noted for clearing)."""
+    i = site.own_start + site.column_of[j] * N_OWN + channel
+    value = site.own_z[site.z_of[j]]
+    if value > buf.obs[b, k, i]:
+        buf.obs[b, k, i] = value
+    buf.own_written[b, k, buf.own_count[b, k]] = i
+    buf.own_count[b, k] += 1
+
+
+@kernel
+def _write_own(site, st, buf, b, k):
+    """Crane ``k``'s planes (its component, the targets it could fill now) and vector."""
+    obs = buf.obs
+    for n in range(buf.own_count[b, k]):
+        obs[b, k, buf.own_written[b, k, n]] = 0.0
+    buf.own_count[b, k] = 0
+    comp = st.held[b, k]
+    v = site.crane_start
+    if comp >= 0:
+        for i in range(site.length[comp]):
+            _own_plane(site, buf, b, k, st.cells[b, comp, i], 0)
+        for t in site.compatible[comp]:
+            if t < 0:
+                break
+            if st.target_ready[b, t]:
+                for i in range(site.length[t]):
+                    _own_plane(site, buf, b, k, site.target_cells[t, i], 1)
+        s = st.status[b, comp]
+        moves = st.moves[b, comp]
+        obs[b, k, v] = 1.0
+        obs[b, k, v + 1] = s == IN_TRANSIT
+        obs[b, k, v + 2] = s == ARRIVED
+        obs[b, k, v + 3] = min(moves / site.ratio_limit, 1.0)
+        obs[b, k, v + 4] = moves > site.move_limit
+    else:
+        for i in range(5):
+            obs[b, k, v + i] = 0.0
+    obs[b, k, v + 5] = st.assembling[b, k] / site.assembly_steps
+    obs[b, k, v + 6] = 0.0  # pass-over: the automatic mode's only
+    obs[b, k, v + 7] = st.n_assembled[b] / len(site.length)
+    obs[b, k, v + 8] = min(st.step_count[b] / site.step_limit, 1.0)
+
+
+@kernel
+def observe_step(site, st, buf, b):
+    """Bring copy ``b``'s observations up to date after its step (the rules marked what
+    changed)."""
+    refresh_claimable(site, st, buf, b)
+    for c in range(len(site.length)):
+        if buf.changed[c]:
+            buf.changed[c] = False
+            _write_row(site, st, buf.obs, b, c)
+    for n in range(buf.n_dirty[0]):
+        p = buf.dirty_list[n]
+        buf.dirty[p] = False
+        _refresh_column(site, st, buf, b, p)
+    buf.n_dirty[0] = 0
+    for k in range(site.n_cranes):
+        _write_own(site, st, buf, b, k)
+
+
+@kernel
+def observe_reset(site, st, buf, b):
+    """Copy ``b``'s observations from scratch (after a reset)."""
+    for k in range(site.n_cranes):
+        for i in range(site.obs_size):
+            buf.obs[b, k, i] = 0.0
+        buf.own_count[b, k] = 0
+    for c in range(len(site.length)):
+        st.claimable[b, c] = claimable(site, st, b, c)
+        buf.changed[c] = False
+        _write_row(site, st, buf.obs, b, c)
+    for p in range(len(site.column_base)):
+        buf.dirty[p] = False
+        _refresh_column(site, st, buf, b, p)
+    buf.n_dirty[0] = 0
+    for k in range(site.n_cranes):
+        _write_own(site, st, buf, b, k)

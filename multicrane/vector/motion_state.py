@@ -1,0 +1,127 @@
+"""The per-copy arrays of the motion mode: episode state and output buffers, leading axis ``B``.
+
+``MotionState`` is ``multicrane.sim.state.SiteState`` of the multi-agent process for ``B``
+copies, struct of arrays, plus the legality caches the simulator keeps (target readiness,
+claimability) and each copy's generator; ``MotionBuffers`` holds what a step hands out
+(observations ``[B, N, D]``, masks ``[B, N, A]``, rewards, flags, event counts) and the
+kernels' scratch space. Both are allocated once, written in place, and never reallocated.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from multicrane.core.codes import CLAIM_BASE
+from multicrane.envs.infos import N_EVENT_TYPES
+from multicrane.vector.motion_site import MotionSite
+from multicrane.vector.pcg64 import PAIRWISE_DEPTH, RNG_WORDS
+
+
+class MotionState(NamedTuple):
+    """Every mutable value of ``B`` episodes (``C`` components, ``L`` cells each, ``N``
+    cranes, ``P`` cells in the padded grid; -1 means "none")."""
+
+    occ: np.ndarray  # (B, P) int8: FREE, WALL or component index + 1
+    cells: np.ndarray  # (B, C, L) int32: each component's cells, node 1 first
+    pickup: np.ndarray  # (B, C, L) int32: its pick-up pose (-1: pre-built)
+    status: np.ndarray  # (B, C) int8: ``Status``
+    moves: np.ndarray  # (B, C) int32: successful moves since the lift
+    holder: np.ndarray  # (B, C) int16: the crane holding it
+    filled: np.ndarray  # (B, C) int16: the target a component fills
+    filled_by: np.ndarray  # (B, C) int16, per target: the component filling it
+    held: np.ndarray  # (B, N) int64: each crane's component
+    assembling: np.ndarray  # (B, N) int64: assembly steps left
+    n_assembled: np.ndarray  # (B,) int64: assembled components, pre-built included
+    step_count: np.ndarray  # (B,) int64
+    target_ready: np.ndarray  # (B, C) bool: free, supports assembled
+    has_ready: np.ndarray  # (B, C) bool: some compatible target is ready
+    claimable: np.ndarray  # (B, C) bool: as handed out by the last observation
+    pickup_in_zone: np.ndarray  # (B, N, C) bool: the pick-up pose lies in the crane's zone
+    rng: np.ndarray  # (B, 5) uint64: each copy's PCG64 (``multicrane.vector.pcg64``)
+
+
+class MotionBuffers(NamedTuple):
+    """What a step writes for the caller, and the kernels' scratch space."""
+
+    obs: np.ndarray  # (B, N, D) float32
+    final_obs: np.ndarray  # (B, N, D): the last observation of an episode that just ended
+    masks: np.ndarray  # (B, N, A) int8
+    rewards: np.ndarray  # (B, N) float64
+    terms: np.ndarray  # (B, N) float64: each crane's share of the team reward
+    terminated: np.ndarray  # (B, N) bool
+    truncated: np.ndarray  # (B, N) bool
+    event_counts: np.ndarray  # (B, N, len(EventType)) int32: the step's events
+    own_written: np.ndarray  # (B, N, W) int64: observation entries of the own planes set
+    own_count: np.ndarray  # (B, N) int64: how many of them
+    order: np.ndarray  # (N,) int64 scratch: the step's crane order
+    progress_by: np.ndarray  # (N,) int64 scratch: cranes that assembled, in order
+    n_progress: np.ndarray  # (1,) int64 scratch: how many
+    changed: np.ndarray  # (C,) bool scratch: components to repaint
+    dirty: np.ndarray  # (X * Y,) bool scratch: plan columns to recompute
+    dirty_list: np.ndarray  # (X * Y,) int64 scratch: the same as a list
+    n_dirty: np.ndarray  # (1,) int64 scratch: its length
+    tops: np.ndarray  # (7,) int64 scratch: a column's top heights per plane
+    weights: np.ndarray  # (R,) float64 scratch: a candidate table's weights
+    cdf: np.ndarray  # (R,) float64 scratch
+    frames: np.ndarray  # (64, 3) int64 scratch: pairwise_sum's stack
+    partial: np.ndarray  # (64,) float64 scratch: its partial sums
+    occupied: np.ndarray  # (P,) bool scratch: cells taken while drawing a start
+    chosen: np.ndarray  # (C,) int64 scratch: each component's start
+
+
+def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
+    """Zeroed state and buffers for ``n`` copies of a compiled site (reset them before use)."""
+    C, L = site.target_cells.shape
+    N = site.n_cranes
+    P = len(site.static_occ)
+    D = site.obs_size
+    XY = len(site.column_base)
+    rows = max(int(np.diff(site.table_start).max(initial=0)), 1)
+    state = MotionState(
+        occ=np.zeros((n, P), dtype=np.int8),
+        cells=np.full((n, C, L), -1, dtype=np.int32),
+        pickup=np.full((n, C, L), -1, dtype=np.int32),
+        status=np.zeros((n, C), dtype=np.int8),
+        moves=np.zeros((n, C), dtype=np.int32),
+        holder=np.full((n, C), -1, dtype=np.int16),
+        filled=np.full((n, C), -1, dtype=np.int16),
+        filled_by=np.full((n, C), -1, dtype=np.int16),
+        held=np.full((n, N), -1, dtype=np.int64),
+        assembling=np.zeros((n, N), dtype=np.int64),
+        n_assembled=np.zeros(n, dtype=np.int64),
+        step_count=np.zeros(n, dtype=np.int64),
+        target_ready=np.zeros((n, C), dtype=bool),
+        has_ready=np.zeros((n, C), dtype=bool),
+        claimable=np.zeros((n, C), dtype=bool),
+        pickup_in_zone=np.ones((n, N, C), dtype=bool),
+        rng=np.zeros((n, RNG_WORDS), dtype=np.uint64),
+    )
+    buffers = MotionBuffers(
+        obs=np.zeros((n, N, D), dtype=np.float32),
+        final_obs=np.zeros((n, N, D), dtype=np.float32),
+        masks=np.zeros((n, N, CLAIM_BASE + C), dtype=np.int8),
+        rewards=np.zeros((n, N), dtype=np.float64),
+        terms=np.zeros((n, N), dtype=np.float64),
+        terminated=np.zeros((n, N), dtype=bool),
+        truncated=np.zeros((n, N), dtype=bool),
+        event_counts=np.zeros((n, N, N_EVENT_TYPES), dtype=np.int32),
+        own_written=np.zeros((n, N, L * (1 + site.compatible.shape[1])), dtype=np.int64),
+        own_count=np.zeros((n, N), dtype=np.int64),
+        order=np.zeros(N, dtype=np.int64),
+        progress_by=np.zeros(N, dtype=np.int64),
+        n_progress=np.zeros(1, dtype=np.int64),
+        changed=np.zeros(C, dtype=bool),
+        dirty=np.zeros(XY, dtype=bool),
+        dirty_list=np.zeros(XY, dtype=np.int64),
+        n_dirty=np.zeros(1, dtype=np.int64),
+        tops=np.zeros(7, dtype=np.int64),
+        weights=np.zeros(rows, dtype=np.float64),
+        cdf=np.zeros(rows, dtype=np.float64),
+        frames=np.zeros((PAIRWISE_DEPTH, 3), dtype=np.int64),
+        partial=np.zeros(PAIRWISE_DEPTH, dtype=np.float64),
+        occupied=np.zeros(P, dtype=bool),
+        chosen=np.zeros(C, dtype=np.int64),
+    )
+    return state, buffers

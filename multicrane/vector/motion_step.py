@@ -1,0 +1,174 @@
+"""The motion mode's step and reset kernels: every copy in one call, autoresets included.
+
+``step_batch`` is ``MultiCraneEnv.step`` (motion mode, ``multicrane.envs.motion_mode``) for
+every copy: count the step, draw the crane order (``rng.permutation(N)``, none for one crane),
+let each crane act in that order, then the reward of ``multicrane.envs.reward`` (team and
+per-crane terms), termination and truncation, the observations (only what changed) and the
+masks. A copy whose episode ended is reset in the same call (``autoreset``) after its last
+observations are kept in ``final_obs``. ``reset_copy`` draws the start with the paper mode's
+kernel (``draw_start``, the same draws as ``multicrane.sim.start.draw_start``) and builds the
+state as ``SiteState.at_start`` and ``Simulator.reset`` do.
+"""
+
+from __future__ import annotations
+
+from multicrane.vector import motion_rules as rules
+from multicrane.vector.compiled import kernel
+from multicrane.vector.motion_observe import observe_reset, observe_step
+from multicrane.vector.paper_reset import draw_start
+from multicrane.vector.paper_rules import ASSEMBLED, INITIAL
+from multicrane.vector.pcg64 import permutation
+
+
+@kernel
+def _reward(site, st, buf, b, complete):
+    """``motion_mode.physical_step``'s reward: the team reward, and each crane's term."""
+    N = site.n_cranes
+    terms = buf.terms
+    if site.makespan:
+        r = -1.0 + (site.completion if complete else 0.0)
+        for k in range(N):
+            terms[b, k] = r / N
+        return r
+    n_progress = buf.n_progress[0]
+    n_over = 0
+    for k in range(N):
+        comp = st.held[b, k]
+        if comp >= 0 and st.moves[b, comp] > site.move_limit:
+            n_over += 1
+    if complete:
+        r = site.completion
+    elif n_progress:
+        r = float(n_progress * st.n_assembled[b])
+    elif n_over:
+        r = -site.over_limit_cost
+    else:
+        r = -site.step_cost / (st.n_assembled[b] - site.n_prebuilt + 1)
+    for k in range(N):
+        terms[b, k] = 0.0 if n_progress or n_over else r / N
+    if n_progress:
+        for i in range(n_progress):
+            terms[b, buf.progress_by[i]] += r / n_progress
+    elif n_over:
+        for k in range(N):
+            comp = st.held[b, k]
+            if comp >= 0 and st.moves[b, comp] > site.move_limit:
+                terms[b, k] += r / n_over
+    return r
+
+
+@kernel
+def step_copy(site, st, buf, b, actions):
+    """One joint step of copy ``b``; returns True when its episode ended."""
+    N = site.n_cranes
+    for k in range(N):
+        for e in range(buf.event_counts.shape[2]):
+            buf.event_counts[b, k, e] = 0
+    st.step_count[b] += 1
+    if N > 1:
+        permutation(st.rng, b, buf.order, N)
+    else:
+        buf.order[0] = 0
+    buf.n_progress[0] = 0
+    for i in range(N):
+        crane = buf.order[i]
+        rules.act(site, st, buf, b, crane, actions[b, crane])
+    complete = st.n_assembled[b] == len(site.length)
+    r = _reward(site, st, buf, b, complete)
+    count = st.step_count[b]
+    truncated = not complete and (
+        count >= site.step_limit or (site.cycle_limit > 0 and count >= site.cycle_limit)
+    )
+    for k in range(N):
+        buf.rewards[b, k] = buf.terms[b, k] if site.split else r
+        buf.terminated[b, k] = complete
+        buf.truncated[b, k] = truncated
+    observe_step(site, st, buf, b)
+    rules.write_masks(site, st, buf.masks, b)
+    return complete or truncated
+
+
+@kernel
+def _lay_out(site, st, buf, b):
+    """Every component's cells, pick-up pose and status at the start drawn in ``buf.chosen``
+    (``SiteState.at_start``), and each crane's reach of the pick-up poses."""
+    C, L = site.target_cells.shape
+    for j in range(len(site.static_occ)):
+        st.occ[b, j] = site.static_occ[j]
+    for i in range(C):
+        st.moves[b, i] = 0
+        st.holder[b, i] = -1
+        st.filled[b, i] = -1
+        st.filled_by[b, i] = -1
+    for i in range(C):
+        t = buf.chosen[i] if site.prebuilt[i] else -1
+        for u in range(L):
+            if t >= 0:
+                st.cells[b, i, u] = site.target_cells[t, u]
+                st.pickup[b, i, u] = -1
+            elif site.table_of[i] >= 0:
+                st.cells[b, i, u] = site.cand_cells[buf.chosen[i], u]
+                st.pickup[b, i, u] = site.cand_pickup[buf.chosen[i], u]
+            else:
+                st.cells[b, i, u] = site.fixed_cells[i, u]
+                st.pickup[b, i, u] = site.fixed_pickup[i, u]
+            j = st.cells[b, i, u]
+            if j >= 0:
+                st.occ[b, j] = i + 1
+        st.status[b, i] = ASSEMBLED if t >= 0 else INITIAL
+        if t >= 0:
+            st.filled[b, i] = t
+            st.filled_by[b, t] = i
+        for k in range(site.n_cranes):
+            inside = True
+            for u in range(L):
+                j = st.pickup[b, i, u]
+                if j >= 0 and not site.zone[k, j]:
+                    inside = False
+            st.pickup_in_zone[b, k, i] = inside
+
+
+@kernel
+def reset_copy(site, st, buf, b):
+    """Start a new episode in copy ``b`` from its generator; False when no start is found."""
+    if not draw_start(site, st, buf, b):
+        return False
+    _lay_out(site, st, buf, b)
+    for k in range(site.n_cranes):
+        st.held[b, k] = -1
+        st.assembling[b, k] = 0
+    st.n_assembled[b] = site.n_prebuilt
+    st.step_count[b] = 0
+    rules.refresh_ready(site, st, b)
+    observe_reset(site, st, buf, b)
+    rules.write_masks(site, st, buf.masks, b)
+    return True
+
+
+@kernel
+def reset_copies(site, st, buf, which):
+    """Reset every copy with ``which[b]``; returns the first copy with no start, else -1."""
+    for b in range(len(which)):
+        if which[b] and not reset_copy(site, st, buf, b):
+            return b
+    return -1
+
+
+@kernel
+def step_batch(site, st, buf, actions, autoreset):
+    """Step every copy with its row of ``actions`` ((B, N) int64); returns (copy, crane) of
+    the first action outside ``0..A-1`` (nothing is stepped then), and the first copy whose
+    reset found no start; -1 where none."""
+    n, A = actions.shape[0], buf.masks.shape[2]
+    for b in range(n):
+        for k in range(site.n_cranes):
+            if actions[b, k] < 0 or actions[b, k] >= A:
+                return b, k, -1
+    for b in range(n):
+        if step_copy(site, st, buf, b, actions) and autoreset:
+            for k in range(site.n_cranes):
+                for i in range(site.obs_size):
+                    buf.final_obs[b, k, i] = buf.obs[b, k, i]
+            if not reset_copy(site, st, buf, b):
+                return -1, -1, b
+    return -1, -1, -1

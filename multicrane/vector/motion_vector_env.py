@@ -1,0 +1,202 @@
+"""``MotionVectorEnv``: B copies of one scenario in the multi-agent motion mode, stepped together.
+
+Each copy is the MDP of ``multicrane.parallel_env(scenario, obs_format="flat", ...)`` in the
+motion mode (``auto=False``: cranes claim, move and assemble by action), step for step and
+number for number, the crane order of every step and the start of every episode drawn from
+the copy's generator as the one-site env draws them. The copies live in the arrays of
+``multicrane.vector.motion_state`` and are stepped, observed, masked and reset by the kernels
+of ``multicrane.vector.motion_step`` in one call (docs/vector.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from gymnasium import spaces
+
+from multicrane.core.schema import Scenario, ScenarioError
+from multicrane.envs.boundary import as_integer, require_reset
+from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.vector.motion_site import compile_motion_site
+from multicrane.vector.motion_state import allocate
+from multicrane.vector.motion_step import reset_copies, step_batch
+from multicrane.vector.pcg64 import generator_of, seed_states
+
+
+class MotionVectorEnv:
+    """``num_envs`` copies of ``MultiCraneEnv(scenario, n_cranes, obs_format="flat", ...)``
+    with motion-level decisions.
+
+    **Arrays.** ``reset`` and ``step`` return observations ``[B, N, D]`` (float32; row ``k``
+    is ``crane_k``'s flat observation), rewards ``[B, N]`` (float64: the team reward, or each
+    crane's share with ``reward_mode="split"``), terminations and truncations ``[B, N]``
+    (bool; every crane of a copy shares them, as in the one-site env) and infos;
+    ``action_masks()`` is ``[B, N, 8 + C]`` (int8). Actions are ``[B, N]`` integers.
+
+    **Options.** ``scenario``, ``n_cranes``, ``max_steps``, ``max_cycles``, ``reward``,
+    ``reward_mode``, ``strict`` as ``MultiCraneEnv``; crane reach comes from the scenario.
+    Site events are refused (``events`` must be None with no ``[events]`` table, or
+    ``"none"``), as are the other decision levels and the automatic mode (ValueError).
+
+    **Seeds.** ``reset(seed=s)`` seeds copy ``i`` with the ``i``-th child of
+    ``np.random.SeedSequence(s)``; ``reset(seed=[s0, s1, ...])`` gives copy ``i`` the
+    generator of ``MultiCraneEnv.reset(seed=si)``; ``reset()`` goes on with each copy's
+    generator (fresh entropy the first time). Each step draws the crane order from it.
+
+    **Autoreset: same step.** A copy whose episode ends in a step is reset in that step: the
+    step returns the first observation of its new episode with the reward and flags of the
+    step that ended the old one, and that episode's last observations in
+    ``infos["final_obs"]`` (copies where ``infos["_final_obs"]``).
+
+    **Infos** (arrays over the copies): ``event_counts`` ``[B, N, len(EventType)]`` and
+    ``reward_term`` ``[B, N]``, as the one-site env's per-crane infos; ``final_obs``.
+
+    **Buffers.** ``step`` and ``reset`` return the env's own arrays, written in place by the
+    next call; ``copy=True`` returns fresh arrays instead.
+
+    **Errors.** As the one-site env's, naming the copy and the crane: an action that is not
+    an integer or outside ``0..8 + C - 1``, a wrong shape, a masked action with
+    ``strict=True``, a call before ``reset()``.
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        scenario: str | Path | Scenario = "e2s2",
+        n_cranes: int | None = None,
+        max_steps: int | None = None,
+        max_cycles: int | None = None,
+        reward: str = "paper",
+        reward_mode: str = "team",
+        strict: bool = False,
+        events: str | None = None,
+        copy: bool = False,
+    ):
+        n = as_integer(num_envs, "num_envs")
+        if n < 1:
+            raise ValueError(f"num_envs must be at least 1, got {n}")
+        if events not in (None, "none"):
+            raise ValueError(f"the motion vector env does not model site events yet: {events!r}")
+        self.reference = MultiCraneEnv(
+            scenario, n_cranes, max_steps=max_steps, max_cycles=max_cycles, reward=reward,
+            reward_mode=reward_mode, obs_format="flat", events=events,
+        )  # fmt: skip
+        self.scenario = self.reference.scenario
+        self.site = compile_motion_site(self.reference)
+        self.num_envs = n
+        self.n_cranes = self.site.n_cranes
+        self.n_actions = self.reference.n_actions
+        self.strict = bool(strict)
+        self.copy = bool(copy)
+        self.single_observation_space = self.reference.observation_space("crane_0")
+        self.single_action_space = spaces.Discrete(self.n_actions)
+        self.state, self.buffers = allocate(self.site, n)
+        self._all = np.ones(n, dtype=bool)
+        self._done = np.zeros(n, dtype=bool)
+        self._started = False
+
+    # -- episodes ----------------------------------------------------------------------------
+
+    def reset(self, *, seed: int | Sequence[int | None] | None = None, options=None):
+        """Reset every copy (see the class doc for ``seed``)."""
+        if seed is not None or not self._started:
+            seed_states(self.state.rng, seed)
+        self._started = True
+        failed = reset_copies(self.site, self.state, self.buffers, self._all)
+        if failed >= 0:
+            self._no_start(failed)
+        buf = self.buffers
+        for array in (buf.event_counts, buf.rewards, buf.terms, buf.terminated, buf.truncated):
+            array[:] = 0
+        self._done[:] = False
+        return self._out(buf.obs), self._infos()
+
+    def _no_start(self, copy: int) -> None:
+        raise ScenarioError(
+            f"{self.scenario.source}: copy {copy}: no start found (no free target for a "
+            f"pre-built component, or no random layout in the allowed attempts)"
+        )
+
+    def step(self, actions):
+        """One joint step of every copy (autoresets included); see the class doc."""
+        require_reset(self._started, "step")
+        a = self._actions(actions)
+        if self.strict:
+            self._check_masks(a)
+        bad_copy, bad_crane, failed = step_batch(self.site, self.state, self.buffers, a, True)
+        if bad_copy >= 0:
+            self._out_of_range(bad_copy, bad_crane, a[bad_copy, bad_crane])
+        if failed >= 0:
+            self._no_start(failed)
+        buf = self.buffers
+        np.logical_or(buf.terminated[:, 0], buf.truncated[:, 0], out=self._done)
+        out = self._out
+        return (out(buf.obs), out(buf.rewards), out(buf.terminated), out(buf.truncated),
+                self._infos())  # fmt: skip
+
+    def _actions(self, actions) -> np.ndarray:
+        """The actions as an int64 array of shape (num_envs, n_cranes); else the one-site
+        env's errors, naming the copy and the crane."""
+        a = np.asarray(actions)
+        shape = (self.num_envs, self.n_cranes)
+        if a.shape != shape:
+            raise ValueError(
+                f"step(): actions must have shape {shape} (one per copy and crane), got {a.shape}"
+            )
+        if a.dtype != bool and np.issubdtype(a.dtype, np.integer):
+            return a if a.dtype == np.int64 else a.astype(np.int64)
+        for (copy, crane), value in np.ndenumerate(a):
+            action = as_integer(value, f"step(): copy {copy}: the action of crane_{crane}")
+            if not 0 <= action < self.n_actions:
+                self._out_of_range(copy, crane, action)
+        return a.astype(np.int64)
+
+    def _out_of_range(self, copy: int, crane: int, action: int) -> None:
+        raise ValueError(
+            f"step(): copy {copy}: crane_{crane} sent action {action}, "
+            f"outside 0..{self.n_actions - 1}"
+        )
+
+    def _check_masks(self, a: np.ndarray) -> None:
+        inside = (a >= 0) & (a < self.n_actions)
+        clipped = np.clip(a, 0, self.n_actions - 1)[..., None]
+        legal = np.take_along_axis(self.buffers.masks, clipped, axis=2)
+        bad = np.argwhere(inside & (legal[..., 0] == 0))
+        if len(bad):
+            copy, crane = (int(v) for v in bad[0])
+            what = self.reference.mode.describe(int(a[copy, crane]))
+            raise ValueError(
+                f"step(): copy {copy}: crane_{crane} sent illegal action "
+                f"{a[copy, crane]} ({what})"
+            )
+
+    def _out(self, array: np.ndarray) -> np.ndarray:
+        return array.copy() if self.copy else array
+
+    def _infos(self) -> dict[str, np.ndarray]:
+        buf, out = self.buffers, self._out
+        return {
+            "event_counts": out(buf.event_counts),
+            "reward_term": out(buf.terms),
+            "final_obs": out(buf.final_obs),
+            "_final_obs": self._done.copy(),
+        }
+
+    # -- queries -----------------------------------------------------------------------------
+
+    def action_masks(self) -> np.ndarray:
+        """``[num_envs, n_cranes, 8 + C]`` int8: each copy's ``action_masks()`` (a copy)."""
+        require_reset(self._started, "action_masks")
+        return self.buffers.masks.copy()
+
+    def generator(self, copy: int) -> np.random.Generator:
+        """A numpy generator in copy ``copy``'s present state (the copy's own goes on
+        unchanged)."""
+        if not 0 <= as_integer(copy, "copy") < self.num_envs:
+            raise IndexError(f"copy {copy} out of range 0..{self.num_envs - 1}")
+        return generator_of(self.state.rng[copy])
+
+    def close(self) -> None:
+        """Nothing to release (the arrays go with the env)."""
