@@ -140,17 +140,10 @@ def test_fuzz_ifc_models(tmp_path_factory, case):
     run_case(tmp_path_factory.mktemp("fuzz"), case)
 
 
-@pytest.fixture
-def large_run(request):
-    """The large run only with ``-m fuzz`` (it is not part of the default suite)."""
-    if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large fuzz run: python -m pytest -m fuzz tests/ifc/test_ifc_fuzz.py")
-
-
 @pytest.mark.fuzz
 @settings(max_examples=LARGE, derandomize=True, **COMMON)
 @given(models())
-def test_fuzz_ifc_models_large(large_run, tmp_path_factory, case):
+def test_fuzz_ifc_models_large(tmp_path_factory, case):
     run_case(tmp_path_factory.mktemp("fuzz"), case)
 
 

@@ -181,13 +181,6 @@ COMMON = dict(
 )
 
 
-@pytest.fixture
-def large_run(request):
-    """The large runs only with ``-m fuzz`` (they are not part of the default suite)."""
-    if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large fuzz run: python -m pytest -m fuzz tests/scenario/test_fuzz.py")
-
-
 @settings(max_examples=400, **COMMON)
 @given(mutated_scenario())
 def test_fuzz_scenarios(case):
@@ -197,7 +190,7 @@ def test_fuzz_scenarios(case):
 @pytest.mark.fuzz
 @settings(max_examples=LARGE, **{**COMMON, "derandomize": False})
 @given(mutated_scenario())
-def test_fuzz_scenarios_large(large_run, case):
+def test_fuzz_scenarios_large(case):
     run_scenario_case(*case)
 
 
@@ -281,7 +274,7 @@ def test_fuzz_records(tmp_path_factory, case):
 @pytest.mark.fuzz
 @settings(max_examples=LARGE, **{**COMMON, "derandomize": False})
 @given(mutated_record())
-def test_fuzz_records_large(large_run, tmp_path_factory, case):
+def test_fuzz_records_large(tmp_path_factory, case):
     run_record_case(tmp_path_factory.mktemp("rec"), *case)
 
 

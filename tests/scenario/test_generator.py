@@ -93,13 +93,6 @@ def check_site(family: str, seed: int, p: dict, cycles: int = 5) -> None:
 COMMON = dict(deadline=None, database=None, suppress_health_check=list(HealthCheck))
 
 
-@pytest.fixture
-def large_run(request):
-    """The large run only with ``-m fuzz`` (not part of the default suite)."""
-    if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large run: python -m pytest -m fuzz tests/scenario/test_generator.py")
-
-
 @settings(max_examples=100, derandomize=True, **COMMON)
 @given(sites())
 def test_generated_sites_load_pass_api_test_and_are_solved(site):
@@ -109,7 +102,7 @@ def test_generated_sites_load_pass_api_test_and_are_solved(site):
 @pytest.mark.fuzz
 @settings(max_examples=LARGE, **COMMON)
 @given(sites(large=True))
-def test_generated_sites_fuzz(large_run, site):
+def test_generated_sites_fuzz(site):
     check_site(*site, cycles=20)
 
 

@@ -307,11 +307,9 @@ def events_env(name: str, decisions: str, events, n_cranes: int | None = 2) -> M
 @pytest.mark.parametrize("events", ["high", ALL_ON], ids=["high", "all-on"])
 @pytest.mark.parametrize("decisions", ["motion", "task", "auto"])
 @pytest.mark.parametrize("name", SCENARIOS)
-def test_invariants_long_random_play_with_events(request, name, decisions, events):
+def test_invariants_long_random_play_with_events(name, decisions, events):
     """The large runs, only with ``-m fuzz`` (about 100 s): long random play on every
     shipped scenario, both decision levels and the automatic mode."""
-    if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large events run: python -m pytest -m fuzz tests/sim/test_events.py")
     if (why := reach_skip(name, 1 if decisions == "auto" else None)) is not None:
         pytest.skip(why)
     env = events_env(name, decisions, events, n_cranes=None)

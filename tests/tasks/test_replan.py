@@ -309,9 +309,7 @@ def test_planners_finish_every_scenario_with_events(name, level):
 @pytest.mark.fuzz
 @pytest.mark.parametrize("level", ["low", "high"])
 @pytest.mark.parametrize("name", ["replanning", "static-plan"])
-def test_planners_finish_every_scenario_with_events_many_seeds(request, name, level):
-    if "fuzz" not in (request.config.getoption("-m") or ""):
-        pytest.skip("the large run: python -m pytest -m fuzz tests/tasks/test_replan.py")
+def test_planners_finish_every_scenario_with_events_many_seeds(name, level):
     for scenario, n in _settings():
         for seed in range(1, 5):
             finishes(name, scenario, n, level, seed)
