@@ -22,7 +22,7 @@ from multicrane.core.kinds import kind_spec
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.sim.site import WALL
 from multicrane.vector.paper_site import MAX_COMPONENTS
-from multicrane.vector.start_arrays import candidate_tables, column_of, fixed_starts, padded
+from multicrane.vector.start_arrays import component_arrays, grid_arrays, padded
 
 
 class MotionSite(NamedTuple):
@@ -94,35 +94,19 @@ def compile_motion_site(env: MultiCraneEnv) -> MotionSite:
     site = sim.site
     if int((site.target_at >= 0).sum()) != sum(site.length):
         raise ValueError(f"{scenario.name}: overlapping targets are not modelled")
-    comps = scenario.components
-    width = max(c.length for c in comps)
     X, Y, H = scenario.size
     n = sim.n_cranes
-    compatible = padded(site.compatible)
+    components = component_arrays(scenario, site)
     lay = env.observation_layout
     shape = site.shape
     return MotionSite(
-        static_occ=site.static.astype(np.int8),
+        **grid_arrays(site, X, Y, H),
         obstacle=_obstacles(site, X, Y, H),
-        move_delta=np.array(site.move_delta, dtype=np.int64),
-        column_of=column_of(site, X, Y, H),
-        column_base=np.array([site.lin(x, y, 0) for x in range(X) for y in range(Y)]),
-        height=H,
         z_of=np.broadcast_to(np.arange(H + 2), shape).reshape(-1).astype(np.int64),
-        length=np.array(site.length, dtype=np.int64),
-        waits=np.array(site.waits, dtype=bool),
-        prebuilt=np.array([c.prebuilt for c in comps], dtype=bool),
-        n_prebuilt=sum(c.prebuilt for c in comps),
-        target_cells=padded(site.target_cells, width),
-        target_at=site.target_at.astype(np.int64),
-        supports=padded(site.target_supports),
-        compatible=compatible,
-        prebuilt_on=padded([list(c.prebuilt_on) for c in comps]),
-        **fixed_starts(scenario, site, width),
-        **candidate_tables(scenario, site, width),
+        **components,
         n_cranes=n,
         has_reach=site.reach is not None,
-        **_reach(sim, compatible),
+        **_reach(sim, components["compatible"]),
         assembly_steps=scenario.assembly_steps,
         step_limit=env.step_limit,
         cycle_limit=env.max_cycles or 0,

@@ -16,7 +16,7 @@ import numpy as np
 from multicrane.core.codes import CLAIM_BASE
 from multicrane.envs.infos import N_EVENT_TYPES
 from multicrane.vector.motion_site import MotionSite
-from multicrane.vector.pcg64 import PAIRWISE_DEPTH, RNG_WORDS
+from multicrane.vector.paper_state import component_state, start_scratch
 
 
 class MotionState(NamedTuple):
@@ -75,28 +75,17 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
     """Zeroed state and buffers for ``n`` copies of a compiled site (reset them before use)."""
     C, L = site.target_cells.shape
     N = site.n_cranes
-    P = len(site.static_occ)
     D = site.obs_size
     XY = len(site.column_base)
-    rows = max(int(np.diff(site.table_start).max(initial=0)), 1)
     state = MotionState(
-        occ=np.zeros((n, P), dtype=np.int8),
-        cells=np.full((n, C, L), -1, dtype=np.int32),
-        pickup=np.full((n, C, L), -1, dtype=np.int32),
-        status=np.zeros((n, C), dtype=np.int8),
-        moves=np.zeros((n, C), dtype=np.int32),
+        **component_state(site, n),
         holder=np.full((n, C), -1, dtype=np.int16),
-        filled=np.full((n, C), -1, dtype=np.int16),
-        filled_by=np.full((n, C), -1, dtype=np.int16),
         held=np.full((n, N), -1, dtype=np.int64),
         assembling=np.zeros((n, N), dtype=np.int64),
-        n_assembled=np.zeros(n, dtype=np.int64),
-        step_count=np.zeros(n, dtype=np.int64),
         target_ready=np.zeros((n, C), dtype=bool),
         has_ready=np.zeros((n, C), dtype=bool),
         claimable=np.zeros((n, C), dtype=bool),
         pickup_in_zone=np.ones((n, N, C), dtype=bool),
-        rng=np.zeros((n, RNG_WORDS), dtype=np.uint64),
     )
     buffers = MotionBuffers(
         obs=np.zeros((n, N, D), dtype=np.float32),
@@ -117,11 +106,6 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
         dirty_list=np.zeros(XY, dtype=np.int64),
         n_dirty=np.zeros(1, dtype=np.int64),
         tops=np.zeros(7, dtype=np.int64),
-        weights=np.zeros(rows, dtype=np.float64),
-        cdf=np.zeros(rows, dtype=np.float64),
-        frames=np.zeros((PAIRWISE_DEPTH, 3), dtype=np.int64),
-        partial=np.zeros(PAIRWISE_DEPTH, dtype=np.float64),
-        occupied=np.zeros(P, dtype=bool),
-        chosen=np.zeros(C, dtype=np.int64),
+        **start_scratch(site),
     )
     return state, buffers

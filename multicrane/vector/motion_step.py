@@ -15,8 +15,7 @@ from __future__ import annotations
 from multicrane.vector import motion_rules as rules
 from multicrane.vector.compiled import kernel
 from multicrane.vector.motion_observe import observe_reset, observe_step
-from multicrane.vector.paper_reset import draw_start
-from multicrane.vector.paper_rules import ASSEMBLED, INITIAL
+from multicrane.vector.paper_reset import draw_start, lay_out
 from multicrane.vector.pcg64 import permutation
 
 
@@ -90,35 +89,12 @@ def step_copy(site, st, buf, b, actions):
 
 @kernel
 def _lay_out(site, st, buf, b):
-    """Every component's cells, pick-up pose and status at the start drawn in ``buf.chosen``
-    (``SiteState.at_start``), and each crane's reach of the pick-up poses."""
+    """The components at the start drawn in ``buf.chosen`` (``paper_reset.lay_out``), none
+    held, and each crane's reach of the pick-up poses."""
+    lay_out(site, st, buf, b)
     C, L = site.target_cells.shape
-    for j in range(len(site.static_occ)):
-        st.occ[b, j] = site.static_occ[j]
     for i in range(C):
-        st.moves[b, i] = 0
         st.holder[b, i] = -1
-        st.filled[b, i] = -1
-        st.filled_by[b, i] = -1
-    for i in range(C):
-        t = buf.chosen[i] if site.prebuilt[i] else -1
-        for u in range(L):
-            if t >= 0:
-                st.cells[b, i, u] = site.target_cells[t, u]
-                st.pickup[b, i, u] = -1
-            elif site.table_of[i] >= 0:
-                st.cells[b, i, u] = site.cand_cells[buf.chosen[i], u]
-                st.pickup[b, i, u] = site.cand_pickup[buf.chosen[i], u]
-            else:
-                st.cells[b, i, u] = site.fixed_cells[i, u]
-                st.pickup[b, i, u] = site.fixed_pickup[i, u]
-            j = st.cells[b, i, u]
-            if j >= 0:
-                st.occ[b, j] = i + 1
-        st.status[b, i] = ASSEMBLED if t >= 0 else INITIAL
-        if t >= 0:
-            st.filled[b, i] = t
-            st.filled_by[b, t] = i
         for k in range(site.n_cranes):
             inside = True
             for u in range(L):

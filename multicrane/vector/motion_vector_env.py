@@ -16,16 +16,16 @@ from pathlib import Path
 import numpy as np
 from gymnasium import spaces
 
-from multicrane.core.schema import Scenario, ScenarioError
+from multicrane.core.schema import Scenario
 from multicrane.envs.boundary import as_integer, require_reset
 from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.vector.copies import Copies
 from multicrane.vector.motion_site import compile_motion_site
 from multicrane.vector.motion_state import allocate
 from multicrane.vector.motion_step import reset_copies, step_batch
-from multicrane.vector.pcg64 import generator_of, seed_states
 
 
-class MotionVectorEnv:
+class MotionVectorEnv(Copies):
     """``num_envs`` copies of ``MultiCraneEnv(scenario, n_cranes, obs_format="flat", ...)``
     with motion-level decisions.
 
@@ -74,9 +74,7 @@ class MotionVectorEnv:
         events: str | None = None,
         copy: bool = False,
     ):
-        n = as_integer(num_envs, "num_envs")
-        if n < 1:
-            raise ValueError(f"num_envs must be at least 1, got {n}")
+        n = self._set_up_copies(num_envs, copy)
         if events not in (None, "none"):
             raise ValueError(f"the motion vector env does not model site events yet: {events!r}")
         self.reference = MultiCraneEnv(
@@ -85,39 +83,20 @@ class MotionVectorEnv:
         )  # fmt: skip
         self.scenario = self.reference.scenario
         self.site = compile_motion_site(self.reference)
-        self.num_envs = n
         self.n_cranes = self.site.n_cranes
         self.n_actions = self.reference.n_actions
         self.strict = bool(strict)
-        self.copy = bool(copy)
         self.single_observation_space = self.reference.observation_space("crane_0")
         self.single_action_space = spaces.Discrete(self.n_actions)
         self.state, self.buffers = allocate(self.site, n)
-        self._all = np.ones(n, dtype=bool)
-        self._done = np.zeros(n, dtype=bool)
-        self._started = False
 
     # -- episodes ----------------------------------------------------------------------------
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None, options=None):
         """Reset every copy (see the class doc for ``seed``)."""
-        if seed is not None or not self._started:
-            seed_states(self.state.rng, seed)
-        self._started = True
+        self._seed(seed)
         failed = reset_copies(self.site, self.state, self.buffers, self._all)
-        if failed >= 0:
-            self._no_start(failed)
-        buf = self.buffers
-        for array in (buf.event_counts, buf.rewards, buf.terms, buf.terminated, buf.truncated):
-            array[:] = 0
-        self._done[:] = False
-        return self._out(buf.obs), self._infos()
-
-    def _no_start(self, copy: int) -> None:
-        raise ScenarioError(
-            f"{self.scenario.source}: copy {copy}: no start found (no free target for a "
-            f"pre-built component, or no random layout in the allowed attempts)"
-        )
+        return self._reset_outputs(failed, self.buffers.terms)
 
     def step(self, actions):
         """One joint step of every copy (autoresets included); see the class doc."""
@@ -128,13 +107,7 @@ class MotionVectorEnv:
         bad_copy, bad_crane, failed = step_batch(self.site, self.state, self.buffers, a, True)
         if bad_copy >= 0:
             self._out_of_range(bad_copy, bad_crane, a[bad_copy, bad_crane])
-        if failed >= 0:
-            self._no_start(failed)
-        buf = self.buffers
-        np.logical_or(buf.terminated[:, 0], buf.truncated[:, 0], out=self._done)
-        out = self._out
-        return (out(buf.obs), out(buf.rewards), out(buf.terminated), out(buf.truncated),
-                self._infos())  # fmt: skip
+        return self._step_outputs(failed)
 
     def _actions(self, actions) -> np.ndarray:
         """The actions as an int64 array of shape (num_envs, n_cranes); else the one-site
@@ -172,31 +145,13 @@ class MotionVectorEnv:
                 f"{a[copy, crane]} ({what})"
             )
 
-    def _out(self, array: np.ndarray) -> np.ndarray:
-        return array.copy() if self.copy else array
-
     def _infos(self) -> dict[str, np.ndarray]:
         buf, out = self.buffers, self._out
         return {
             "event_counts": out(buf.event_counts),
             "reward_term": out(buf.terms),
-            "final_obs": out(buf.final_obs),
-            "_final_obs": self._done.copy(),
+            **self._final_obs_infos(),
         }
-
-    # -- queries -----------------------------------------------------------------------------
-
-    def action_masks(self) -> np.ndarray:
-        """``[num_envs, n_cranes, 8 + C]`` int8: each copy's ``action_masks()`` (a copy)."""
-        require_reset(self._started, "action_masks")
-        return self.buffers.masks.copy()
-
-    def generator(self, copy: int) -> np.random.Generator:
-        """A numpy generator in copy ``copy``'s present state (the copy's own goes on
-        unchanged)."""
-        if not 0 <= as_integer(copy, "copy") < self.num_envs:
-            raise IndexError(f"copy {copy} out of range 0..{self.num_envs - 1}")
-        return generator_of(self.state.rng[copy])
 
     def close(self) -> None:
         """Nothing to release (the arrays go with the env)."""

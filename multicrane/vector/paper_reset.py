@@ -4,8 +4,9 @@
 Python function does with a ``np.random.Generator`` in the same state: first the target of
 each pre-built component that may stand on several (``integers``), then, in list order, each
 randomly placed component's pose among its free candidates (``choice`` with the renormalised
-weights), the whole layout drawn again when one finds no free pose. ``reset_copy`` then builds
-the episode's state as ``SiteState.at_start`` and ``Simulator.reset`` do, gives the crane its
+weights), the whole layout drawn again when one finds no free pose. ``lay_out`` puts the
+components where it drew them (both modes' resets call it); ``reset_copy`` then builds the
+episode's state as ``SiteState.at_start`` and ``Simulator.reset`` do, gives the crane its
 first component, and writes the observation and mask.
 """
 
@@ -105,8 +106,9 @@ def draw_start(site, st, buf, b):
 
 
 @kernel
-def _lay_out(site, st, buf, b):
-    """Every component's cells, pick-up pose and status at the start drawn in ``buf.chosen``."""
+def lay_out(site, st, buf, b):
+    """Every component's cells, pick-up pose, status, target and move count at the start
+    drawn in ``buf.chosen`` (``SiteState.at_start``), and the grid's occupancy."""
     C, L = site.target_cells.shape
     for j in range(len(site.static_occ)):
         st.occ[b, j] = site.static_occ[j]
@@ -114,7 +116,6 @@ def _lay_out(site, st, buf, b):
         st.moves[b, i] = 0
         st.filled[b, i] = -1
         st.filled_by[b, i] = -1
-        st.passed_over[b, i] = False
     for i in range(C):
         t = buf.chosen[i] if site.prebuilt[i] else -1
         for u in range(L):
@@ -143,7 +144,9 @@ def reset_copy(site, st, buf, b, mask_blocked):
     """Start a new episode in copy ``b`` from its generator; False when no start is found."""
     if not draw_start(site, st, buf, b):
         return False
-    _lay_out(site, st, buf, b)
+    lay_out(site, st, buf, b)
+    for i in range(len(site.prebuilt)):
+        st.passed_over[b, i] = False
     st.held[b] = -1
     st.pass_over[b] = False
     st.pointer[b] = 0

@@ -19,7 +19,7 @@ import numpy as np
 from multicrane.core.schema import Scenario
 from multicrane.envs.paper_env import N_PAPER_CHANNELS
 from multicrane.sim.site import WALL, Site
-from multicrane.vector.start_arrays import candidate_tables, column_of, fixed_starts, padded
+from multicrane.vector.start_arrays import component_arrays, grid_arrays
 
 MAX_COMPONENTS = 126  # the occupancy grid is int8: component index + 1
 
@@ -71,28 +71,11 @@ def compile_site(scenario: Scenario) -> PaperSite:
     if scenario.n_components > MAX_COMPONENTS:
         raise ValueError(f"{scenario.name}: at most {MAX_COMPONENTS} components in the vector env")
     site = Site(scenario)
-    comps = scenario.components
-    width = max(c.length for c in comps)
-    tables = candidate_tables(scenario, site, width)
     X, Y, H = scenario.size
     return PaperSite(
-        static_occ=site.static.astype(np.int8),
-        move_delta=np.array(site.move_delta, dtype=np.int64),
-        column_of=column_of(site, X, Y, H),
-        column_base=np.array([site.lin(x, y, 0) for x in range(X) for y in range(Y)]),
-        height=H,
-        length=np.array([c.length for c in comps], dtype=np.int64),
+        **grid_arrays(site, X, Y, H),
         order=np.array(scenario.order, dtype=np.int64),
-        waits=np.array(site.waits, dtype=bool),
-        prebuilt=np.array([c.prebuilt for c in comps], dtype=bool),
-        n_prebuilt=sum(c.prebuilt for c in comps),
-        target_cells=padded(site.target_cells, width),
-        target_at=site.target_at.astype(np.int64),
-        supports=padded(site.target_supports),
-        compatible=padded(site.compatible),
-        prebuilt_on=padded([list(c.prebuilt_on) for c in comps]),
-        **fixed_starts(scenario, site, width),
-        **tables,
+        **component_arrays(scenario, site),
         step_limit=scenario.step_limit,
         move_limit=scenario.reward.move_limit,
         completion=float(scenario.reward.completion),

@@ -4,7 +4,8 @@
 arrays (the fields of ``multicrane.sim.state.SiteState`` that one crane in the automatic
 process uses, plus each copy's generator); ``PaperBuffers`` holds what a step hands out
 (observations, masks, rewards, flags, infos) and the kernels' scratch space. Both are
-allocated once, written in place by the kernels, and never reallocated.
+allocated once, written in place by the kernels, and never reallocated. ``component_state``
+and ``start_scratch`` allocate the fields the motion mode's arrays share with these.
 """
 
 from __future__ import annotations
@@ -62,24 +63,13 @@ class PaperBuffers(NamedTuple):
 def allocate(site: PaperSite, n: int, obs_dtype=np.float32) -> tuple[PaperState, PaperBuffers]:
     """Zeroed state and buffers for ``n`` copies of a compiled site (reset them before use)."""
     C, L = site.target_cells.shape
-    P = len(site.static_occ)
     D = len(site.obs_template)
-    rows = max(int(np.diff(site.table_start).max(initial=0)), 1)
     state = PaperState(
-        occ=np.zeros((n, P), dtype=np.int8),
-        cells=np.full((n, C, L), -1, dtype=np.int32),
-        pickup=np.full((n, C, L), -1, dtype=np.int32),
-        status=np.zeros((n, C), dtype=np.int8),
-        moves=np.zeros((n, C), dtype=np.int32),
-        filled=np.full((n, C), -1, dtype=np.int16),
-        filled_by=np.full((n, C), -1, dtype=np.int16),
+        **component_state(site, n),
         passed_over=np.zeros((n, C), dtype=bool),
         held=np.full(n, -1, dtype=np.int64),
         pass_over=np.zeros(n, dtype=bool),
         pointer=np.zeros(n, dtype=np.int64),
-        n_assembled=np.zeros(n, dtype=np.int64),
-        step_count=np.zeros(n, dtype=np.int64),
-        rng=np.zeros((n, RNG_WORDS), dtype=np.uint64),
     )
     buffers = PaperBuffers(
         obs=np.zeros((n, D), dtype=obs_dtype),
@@ -90,15 +80,41 @@ def allocate(site: PaperSite, n: int, obs_dtype=np.float32) -> tuple[PaperState,
         truncated=np.zeros(n, dtype=bool),
         event_counts=np.zeros((n, N_EVENT_TYPES), dtype=np.int32),
         component_index=np.full(n, -1, dtype=np.int64),
-        weights=np.zeros(rows, dtype=np.float64),
-        cdf=np.zeros(rows, dtype=np.float64),
-        frames=np.zeros((PAIRWISE_DEPTH, 3), dtype=np.int64),
-        partial=np.zeros(PAIRWISE_DEPTH, dtype=np.float64),
-        occupied=np.zeros(P, dtype=bool),
-        chosen=np.zeros(C, dtype=np.int64),
+        **start_scratch(site),
         touched=np.zeros(2 * L, dtype=np.int64),
     )
     return state, buffers
+
+
+def component_state(site, n: int) -> dict[str, np.ndarray]:
+    """The state fields both modes keep for ``n`` copies: the grid, every component's cells,
+    pick-up pose, status, moves and target, the counts and each copy's generator."""
+    C, L = site.target_cells.shape
+    return {
+        "occ": np.zeros((n, len(site.static_occ)), dtype=np.int8),
+        "cells": np.full((n, C, L), -1, dtype=np.int32),
+        "pickup": np.full((n, C, L), -1, dtype=np.int32),
+        "status": np.zeros((n, C), dtype=np.int8),
+        "moves": np.zeros((n, C), dtype=np.int32),
+        "filled": np.full((n, C), -1, dtype=np.int16),
+        "filled_by": np.full((n, C), -1, dtype=np.int16),
+        "n_assembled": np.zeros(n, dtype=np.int64),
+        "step_count": np.zeros(n, dtype=np.int64),
+        "rng": np.zeros((n, RNG_WORDS), dtype=np.uint64),
+    }
+
+
+def start_scratch(site) -> dict[str, np.ndarray]:
+    """The scratch buffers of the start-drawing kernel (``paper_reset.draw_start``)."""
+    rows = max(int(np.diff(site.table_start).max(initial=0)), 1)
+    return {
+        "weights": np.zeros(rows, dtype=np.float64),
+        "cdf": np.zeros(rows, dtype=np.float64),
+        "frames": np.zeros((PAIRWISE_DEPTH, 3), dtype=np.int64),
+        "partial": np.zeros(PAIRWISE_DEPTH, dtype=np.float64),
+        "occupied": np.zeros(len(site.static_occ), dtype=bool),
+        "chosen": np.zeros(len(site.prebuilt), dtype=np.int64),
+    }
 
 
 def nbytes(arrays: NamedTuple) -> int:

@@ -18,19 +18,19 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from multicrane.core.codes import N_MOVES
-from multicrane.core.schema import Scenario, ScenarioError
+from multicrane.core.schema import Scenario
 from multicrane.envs.boundary import as_integer, require_reset
 from multicrane.envs.paper_env import PaperAssemblyEnv
+from multicrane.vector.copies import Copies
 from multicrane.vector.paper_reset import reset_copies
 from multicrane.vector.paper_site import compile_site
 from multicrane.vector.paper_state import allocate
 from multicrane.vector.paper_step import step_batch
-from multicrane.vector.pcg64 import generator_of, seed_states
 
 MOVES_TEXT = "0..5 (x-1, y-1, x+1, y+1, up, down)"
 
 
-class PaperVectorEnv(VectorEnv):
+class PaperVectorEnv(Copies, VectorEnv):
     """``num_envs`` copies of ``PaperAssemblyEnv(config, scenario, mask_blocked_moves)``.
 
     **Spaces.** ``single_observation_space`` is the one-site env's ``Box(0, high, (1350,))``
@@ -72,9 +72,7 @@ class PaperVectorEnv(VectorEnv):
         obs_dtype: Any = np.float32,
         copy: bool = False,
     ):
-        n = as_integer(num_envs, "num_envs")
-        if n < 1:
-            raise ValueError(f"num_envs must be at least 1, got {n}")
+        n = self._set_up_copies(num_envs, copy)
         reference = PaperAssemblyEnv(config=config, scenario=scenario)
         dtype = np.dtype(obs_dtype)
         if dtype not in (np.float32, np.uint8):
@@ -82,8 +80,6 @@ class PaperVectorEnv(VectorEnv):
         self.config = reference.config
         self.scenario = reference.scenario
         self.mask_blocked_moves = bool(mask_blocked_moves)
-        self.copy = bool(copy)
-        self.num_envs = n
         self.render_mode = None
         box = reference.observation_space
         self.single_observation_space = spaces.Box(0, box.high.max(), box.shape, dtype)
@@ -92,37 +88,17 @@ class PaperVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, n)
         self.site = compile_site(self.scenario)
         self.state, self.buffers = allocate(self.site, n, dtype)
-        self._all = np.ones(n, dtype=bool)
-        self._done = np.zeros(n, dtype=bool)
-        self._started = False
 
     # -- episodes ----------------------------------------------------------------------------
 
     def reset(self, *, seed: int | Sequence[int | None] | None = None, options=None):
         """Reset every copy (see the class doc for ``seed``); ``options`` are ignored, as
         ``PaperAssemblyEnv`` ignores them."""
-        if seed is not None or not self._started:
-            seed_states(self.state.rng, seed)
-        self._started = True
-        self._run_resets(self._all)
-        buf = self.buffers
-        buf.event_counts[:] = 0
-        buf.rewards[:] = 0.0
-        buf.terminated[:] = False
-        buf.truncated[:] = False
-        self._done[:] = False
-        return self._out(buf.obs), self._infos()
-
-    def _run_resets(self, which: np.ndarray) -> None:
-        failed = reset_copies(self.site, self.state, self.buffers, which, self.mask_blocked_moves)
-        if failed >= 0:
-            self._no_start(failed)
-
-    def _no_start(self, copy: int) -> None:
-        raise ScenarioError(
-            f"{self.scenario.source}: copy {copy}: no start found (no free target for a "
-            f"pre-built component, or no random layout in the allowed attempts)"
+        self._seed(seed)
+        failed = reset_copies(
+            self.site, self.state, self.buffers, self._all, self.mask_blocked_moves
         )
+        return self._reset_outputs(failed)
 
     def step(self, actions):
         """One step of every copy (autoresets included); see the class doc."""
@@ -133,13 +109,7 @@ class PaperVectorEnv(VectorEnv):
         )
         if bad >= 0:
             _out_of_range(bad, a[bad])
-        if failed >= 0:
-            self._no_start(failed)
-        buf = self.buffers
-        np.logical_or(buf.terminated, buf.truncated, out=self._done)
-        out = self._out
-        return (out(buf.obs), out(buf.rewards), out(buf.terminated), out(buf.truncated),
-                self._infos())  # fmt: skip
+        return self._step_outputs(failed)
 
     def _actions(self, actions) -> np.ndarray:
         """The actions as an int64 array of shape (num_envs,); else the one-site env's errors,
@@ -158,9 +128,6 @@ class PaperVectorEnv(VectorEnv):
                 _out_of_range(copy, action)
         return a.astype(np.int64)  # Python ints, each in range
 
-    def _out(self, array: np.ndarray) -> np.ndarray:
-        return array.copy() if self.copy else array
-
     def _infos(self) -> dict[str, np.ndarray]:
         buf, out = self.buffers, self._out
         return {
@@ -170,23 +137,8 @@ class PaperVectorEnv(VectorEnv):
             "_component_index": self._all,
             "is_success": buf.terminated.copy(),
             "_is_success": self._done.copy(),
-            "final_obs": out(buf.final_obs),
-            "_final_obs": self._done.copy(),
+            **self._final_obs_infos(),
         }
-
-    # -- queries -----------------------------------------------------------------------------
-
-    def action_masks(self) -> np.ndarray:
-        """``[num_envs, 6]`` int8: each copy's ``PaperAssemblyEnv.action_masks()`` (a copy)."""
-        require_reset(self._started, "action_masks")
-        return self.buffers.masks.copy()
-
-    def generator(self, copy: int) -> np.random.Generator:
-        """A numpy generator in copy ``copy``'s present state (the copy's own goes on
-        unchanged): the one its next episode's start will be drawn from."""
-        if not 0 <= as_integer(copy, "copy") < self.num_envs:
-            raise IndexError(f"copy {copy} out of range 0..{self.num_envs - 1}")
-        return generator_of(self.state.rng[copy])
 
 
 def _out_of_range(copy: int, action: int) -> None:

@@ -3,11 +3,14 @@
 ``fixed_starts`` and ``candidate_tables`` give what the start-drawing kernel
 (``multicrane.vector.paper_reset.draw_start``) reads about a scenario: the fixed initial poses,
 and one table of candidate poses with their probabilities per distinct candidate list of the
-``[random_start]`` rule. ``padded`` packs ragged index lists into one -1 padded array, and
+``[random_start]`` rule; ``grid_arrays`` and ``component_arrays`` give every field both
+compilers share. ``padded`` packs ragged index lists into one -1 padded array, and
 ``column_of`` maps a padded-grid cell to its plan column.
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 
@@ -15,6 +18,37 @@ from multicrane.core.schema import Scenario
 from multicrane.sim import geometry
 from multicrane.sim.site import Site
 from multicrane.sim.start import candidate_poses
+
+
+def grid_arrays(site: Site, X: int, Y: int, H: int) -> dict[str, Any]:
+    """The grid's fields of a compiled site: static occupancy, move offsets, plan columns."""
+    return {
+        "static_occ": site.static.astype(np.int8),
+        "move_delta": np.array(site.move_delta, dtype=np.int64),
+        "column_of": column_of(site, X, Y, H),
+        "column_base": np.array([site.lin(x, y, 0) for x in range(X) for y in range(Y)]),
+        "height": H,
+    }
+
+
+def component_arrays(scenario: Scenario, site: Site) -> dict[str, Any]:
+    """The components', targets' and start rule's fields of a compiled site (the start ones
+    are what ``draw_start`` reads)."""
+    comps = scenario.components
+    width = max(c.length for c in comps)
+    return {
+        "length": np.array([c.length for c in comps], dtype=np.int64),
+        "waits": np.array(site.waits, dtype=bool),
+        "prebuilt": np.array([c.prebuilt for c in comps], dtype=bool),
+        "n_prebuilt": sum(c.prebuilt for c in comps),
+        "target_cells": padded(site.target_cells, width),
+        "target_at": site.target_at.astype(np.int64),
+        "supports": padded(site.target_supports),
+        "compatible": padded(site.compatible),
+        "prebuilt_on": padded([list(c.prebuilt_on) for c in comps]),
+        **fixed_starts(scenario, site, width),
+        **candidate_tables(scenario, site, width),
+    }
 
 
 def padded(rows: list[list[int]], width: int | None = None) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_bench import fake_measurements
 
 from multicrane.cli import main
 from multicrane.core.codes import CLAIM_BASE, WAIT
@@ -86,10 +87,7 @@ def test_motion_measurements():
 
 
 def test_the_command_prints_the_motion_rows(monkeypatch, capsys):
-    monkeypatch.setattr(bench, "steps_per_second", lambda config, b: 1000.0 * b)
-    monkeypatch.setattr(bench, "start_seconds", lambda config, cranes=None: (30.0, 1.5))
-    monkeypatch.setattr(bench, "motion_steps_per_second", lambda scenario, cranes, b: 10.0 * b)
-    monkeypatch.setattr(bench, "motion_bytes_per_copy", lambda scenario, cranes, b: 2e5)
+    fake_measurements(monkeypatch)
     assert main(["bench", "--vector", "--paper", "E2S2", "--steps", "40"]) == 0
     out = capsys.readouterr().out.splitlines()[7:]
     assert out[0].split() == ["scenario", "env", "copies", "joint", "steps/s", "bytes/copy"]

@@ -1,0 +1,102 @@
+"""The plumbing both vector envs share: the copy count, seeding, buffer copies, errors, queries.
+
+``Copies`` is a mixin of ``PaperVectorEnv`` and ``MotionVectorEnv``: each keeps its kernels,
+its arrays (``state``, ``buffers``) and its own ``_infos``; this holds what the two do alike
+around them (docs/vector.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from multicrane.core.schema import ScenarioError
+from multicrane.envs.boundary import as_integer, require_reset
+from multicrane.vector.pcg64 import generator_of, seed_states
+
+
+class Copies:
+    """What a vector env of ``num_envs`` copies does alike in either mode: it sets
+    ``num_envs``, ``copy``, ``_all``, ``_done`` and ``_started``, and reads the subclass's
+    ``scenario``, ``state`` (with ``rng``), ``buffers`` (with ``obs``, ``masks``, ``rewards``,
+    ``terminated``, ``truncated``, ``event_counts``, ``final_obs``) and ``_infos()``."""
+
+    scenario: Any
+    state: Any
+    buffers: Any
+
+    def _set_up_copies(self, num_envs: int, copy: bool) -> int:
+        """Check and keep the copy count (ValueError below 1) and ``copy``; returns the count."""
+        n = as_integer(num_envs, "num_envs")
+        if n < 1:
+            raise ValueError(f"num_envs must be at least 1, got {n}")
+        self.num_envs = n
+        self.copy = bool(copy)
+        self._all = np.ones(n, dtype=bool)
+        self._done = np.zeros(n, dtype=bool)
+        self._started = False
+        return n
+
+    def _seed(self, seed: int | Sequence[int | None] | None) -> None:
+        """Seed every copy's generator for ``reset`` (fresh entropy the first time without)."""
+        if seed is not None or not self._started:
+            seed_states(self.state.rng, seed)
+        self._started = True
+
+    def _reset_outputs(self, failed: int, *more: np.ndarray):
+        """``reset``'s return once the kernel has reset every copy (``failed``: the first copy
+        with no start, else -1): the step outputs (and ``more``) cleared, observations, infos."""
+        if failed >= 0:
+            self._no_start(failed)
+        buf = self.buffers
+        for array in (buf.event_counts, buf.rewards, buf.terminated, buf.truncated, *more):
+            array[:] = 0
+        self._done[:] = False
+        return self._out(buf.obs), self._infos()
+
+    def _step_outputs(self, failed: int):
+        """``step``'s return once the kernel has run (``failed``: the first copy whose
+        autoreset found no start, else -1); ``_done`` is ``terminated`` or ``truncated``."""
+        if failed >= 0:
+            self._no_start(failed)
+        buf = self.buffers
+        np.logical_or(_per_copy(buf.terminated), _per_copy(buf.truncated), out=self._done)
+        out = self._out
+        return (out(buf.obs), out(buf.rewards), out(buf.terminated), out(buf.truncated),
+                self._infos())  # fmt: skip
+
+    def _no_start(self, copy: int) -> None:
+        raise ScenarioError(
+            f"{self.scenario.source}: copy {copy}: no start found (no free target for a "
+            f"pre-built component, or no random layout in the allowed attempts)"
+        )
+
+    def _out(self, array: np.ndarray) -> np.ndarray:
+        return array.copy() if self.copy else array
+
+    def _final_obs_infos(self) -> dict[str, np.ndarray]:
+        """The infos of the episodes that ended in the step: ``final_obs`` and its mask."""
+        return {"final_obs": self._out(self.buffers.final_obs), "_final_obs": self._done.copy()}
+
+    # -- queries -----------------------------------------------------------------------------
+
+    def action_masks(self) -> np.ndarray:
+        """Each copy's one-site ``action_masks()``, leading axis ``num_envs`` (int8, a copy):
+        ``[num_envs, 6]`` in the paper mode, ``[num_envs, n_cranes, 8 + C]`` in the motion
+        mode."""
+        require_reset(self._started, "action_masks")
+        return self.buffers.masks.copy()
+
+    def generator(self, copy: int) -> np.random.Generator:
+        """A numpy generator in copy ``copy``'s present state (the copy's own goes on
+        unchanged): the one its next draws (crane orders, starts) will come from."""
+        if not 0 <= as_integer(copy, "copy") < self.num_envs:
+            raise IndexError(f"copy {copy} out of range 0..{self.num_envs - 1}")
+        return generator_of(self.state.rng[copy])
+
+
+def _per_copy(flags: np.ndarray) -> np.ndarray:
+    """A copy's flag: the array itself (one per copy) or its first crane's (all share it)."""
+    return flags if flags.ndim == 1 else flags[:, 0]
