@@ -7,7 +7,8 @@ array in and out of every call cost more than the step itself (about 300 ns per 
 6 ns). The price: a kernel never allocates (scratch space comes in ``PaperBuffers``); every
 array it touches is owned by Python. numba checks the cache against the source file of the
 function it compiled only: after editing a kernel that others call, delete the
-``__pycache__/*.nbi`` files of this folder.
+``__pycache__/*.nbi`` files of this folder. ``inlined`` kernels are also inlined into the
+kernels that call them (numba's ``inline="always"``).
 """
 
 from __future__ import annotations
@@ -15,3 +16,7 @@ from __future__ import annotations
 import numba
 
 kernel = numba.njit(cache=True, _nrt=False)
+# The step's helpers, inlined into their callers by numba: a call passes every array of the
+# named tuples it takes as separate arguments (hundreds of words), which cost more than the
+# helpers' work.
+inlined = numba.njit(cache=True, _nrt=False, inline="always")

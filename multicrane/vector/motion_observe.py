@@ -5,30 +5,53 @@ seven shared planes, two per-crane planes, the component table and the crane vec
 ``[N, D]`` block per copy. The shared planes and the table are a function of the state, so a
 step recomputes only the plan columns the rules marked (``buf.dirty``) and the table rows of
 the components they marked (``buf.changed``), plus those whose claimability flipped, and
-writes them into every crane's row; the per-crane parts are rewritten for every crane.
+writes them into every crane's row. Claimability is rechecked only where it may have changed
+(the component changed, target readiness was refreshed, or a pick-up cell's column is dirty).
+A crane's own planes are repainted only when they change: its component's plane when it
+holds another component or that one moved, its targets' plane when it holds another or
+target readiness was refreshed; its crane vector is rewritten every step.
 """
 
 from __future__ import annotations
 
 from multicrane.envs.observation import COMPONENT_FEATURES, N_OWN, N_SHARED
-from multicrane.vector.compiled import kernel
+from multicrane.vector.compiled import inlined, kernel
 from multicrane.vector.motion_rules import claimable, mark_component
 from multicrane.vector.paper_rules import ARRIVED, ASSEMBLED, IN_TRANSIT, INITIAL
 
 _OBSTACLE, _INITIAL, _READY, _IN_TRANSIT, _AT_TARGET, _FREE_TARGET, _OVER_LIMIT = range(N_SHARED)
 
 
-@kernel
+@inlined
+def _may_flip(site, st, buf, b, c):
+    """Whether component ``c``'s claimability may have changed in this step: it changed,
+    readiness was refreshed, or one of its pick-up cells lies in a dirty column."""
+    if buf.changed[c] or buf.ready_changed[0]:
+        return True
+    if st.status[b, c] != INITIAL:
+        return False
+    for i in range(st.pickup.shape[2]):
+        j = st.pickup[b, c, i]
+        if j < 0:
+            break
+        if buf.dirty[site.column_of[j]]:
+            return True
+    return False
+
+
+@inlined
 def refresh_claimable(site, st, buf, b):
     """Claimability of every component now; a component whose flag flipped is repainted."""
     for c in range(len(site.length)):
+        if not _may_flip(site, st, buf, b, c):
+            continue
         now = claimable(site, st, b, c)
         if now != st.claimable[b, c]:
             st.claimable[b, c] = now
             mark_component(site, st, buf, b, c)
 
 
-@kernel
+@inlined
 def _write_row(site, st, obs, b, c):
     """Component ``c``'s table row in every crane's observation."""
     s = st.status[b, c]
@@ -49,7 +72,7 @@ def _write_row(site, st, obs, b, c):
             obs[b, k, o + 11 + a] = site.scaled[last, a]
 
 
-@kernel
+@inlined
 def _refresh_column(site, st, buf, b, p):
     """The seven shared planes of plan column ``p`` from the cells above it, into every
     crane's observation: each holds the top height of a cell that qualifies."""
@@ -85,35 +108,51 @@ def _refresh_column(site, st, buf, b, p):
             buf.obs[b, k, o + f] = site.plane_z[tops[f]]
 
 
-@kernel
+@inlined
 def _own_plane(site, buf, b, k, j, channel):
     """Raise one per-crane plane entry to the height of cell ``j`` (noted for clearing)."""
     i = site.own_start + site.column_of[j] * N_OWN + channel
     value = site.own_z[site.z_of[j]]
     if value > buf.obs[b, k, i]:
         buf.obs[b, k, i] = value
-    buf.own_written[b, k, buf.own_count[b, k]] = i
-    buf.own_count[b, k] += 1
+    slot = channel * site.target_cells.shape[1] + buf.own_count[b, k, channel]
+    buf.own_written[b, k, slot] = i
+    buf.own_count[b, k, channel] += 1
 
 
-@kernel
-def _write_own(site, st, buf, b, k):
-    """Crane ``k``'s planes (its component, the targets it could fill now) and vector."""
+@inlined
+def _clear_own(site, buf, b, k, channel):
+    """Zero the entries of crane ``k``'s plane ``channel`` that were set."""
+    first = channel * site.target_cells.shape[1]
+    for n in range(buf.own_count[b, k, channel]):
+        buf.obs[b, k, buf.own_written[b, k, first + n]] = 0.0
+    buf.own_count[b, k, channel] = 0
+
+
+@inlined
+def _write_own(site, st, buf, b, k, force):
+    """Crane ``k``'s planes (its component, the targets it could fill now), where they
+    changed (everywhere with ``force``), and its vector."""
     obs = buf.obs
-    for n in range(buf.own_count[b, k]):
-        obs[b, k, buf.own_written[b, k, n]] = 0.0
-    buf.own_count[b, k] = 0
     comp = st.held[b, k]
+    other = force or comp != buf.own_comp[b, k]
+    buf.own_comp[b, k] = comp
+    if other or (comp >= 0 and buf.changed[comp]):
+        _clear_own(site, buf, b, k, 0)
+        if comp >= 0:
+            for i in range(site.length[comp]):
+                _own_plane(site, buf, b, k, st.cells[b, comp, i], 0)
+    if other or buf.ready_changed[0]:
+        _clear_own(site, buf, b, k, 1)
+        if comp >= 0:
+            for t in site.compatible[comp]:
+                if t < 0:
+                    break
+                if st.target_ready[b, t]:
+                    for i in range(site.length[t]):
+                        _own_plane(site, buf, b, k, site.target_cells[t, i], 1)
     v = site.crane_start
     if comp >= 0:
-        for i in range(site.length[comp]):
-            _own_plane(site, buf, b, k, st.cells[b, comp, i], 0)
-        for t in site.compatible[comp]:
-            if t < 0:
-                break
-            if st.target_ready[b, t]:
-                for i in range(site.length[t]):
-                    _own_plane(site, buf, b, k, site.target_cells[t, i], 1)
         s = st.status[b, comp]
         moves = st.moves[b, comp]
         obs[b, k, v] = 1.0
@@ -130,11 +169,14 @@ def _write_own(site, st, buf, b, k):
     obs[b, k, v + 8] = min(st.step_count[b] / site.step_limit, 1.0)
 
 
-@kernel
+@inlined
 def observe_step(site, st, buf, b):
     """Bring copy ``b``'s observations up to date after its step (the rules marked what
     changed)."""
     refresh_claimable(site, st, buf, b)
+    for k in range(site.n_cranes):
+        _write_own(site, st, buf, b, k, False)
+    buf.ready_changed[0] = False
     for c in range(len(site.length)):
         if buf.changed[c]:
             buf.changed[c] = False
@@ -144,8 +186,6 @@ def observe_step(site, st, buf, b):
         buf.dirty[p] = False
         _refresh_column(site, st, buf, b, p)
     buf.n_dirty[0] = 0
-    for k in range(site.n_cranes):
-        _write_own(site, st, buf, b, k)
 
 
 @kernel
@@ -154,7 +194,8 @@ def observe_reset(site, st, buf, b):
     for k in range(site.n_cranes):
         for i in range(site.obs_size):
             buf.obs[b, k, i] = 0.0
-        buf.own_count[b, k] = 0
+        buf.own_count[b, k, 0] = 0
+        buf.own_count[b, k, 1] = 0
     for c in range(len(site.length)):
         st.claimable[b, c] = claimable(site, st, b, c)
         buf.changed[c] = False
@@ -164,4 +205,5 @@ def observe_reset(site, st, buf, b):
         _refresh_column(site, st, buf, b, p)
     buf.n_dirty[0] = 0
     for k in range(site.n_cranes):
-        _write_own(site, st, buf, b, k)
+        _write_own(site, st, buf, b, k, True)
+    buf.ready_changed[0] = False

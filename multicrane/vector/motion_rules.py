@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, N_MOVES, WAIT, EventType
 from multicrane.vector import paper_rules
-from multicrane.vector.compiled import kernel
+from multicrane.vector.compiled import inlined, kernel
 from multicrane.vector.paper_rules import ARRIVED, ASSEMBLED, IN_TRANSIT, INITIAL
 
 _CLAIMED = int(EventType.CLAIMED)
@@ -27,7 +27,7 @@ _ASSEMBLED = int(EventType.ASSEMBLED)
 _ILLEGAL = int(EventType.ILLEGAL)
 
 
-@kernel
+@inlined
 def mark_column(site, buf, j):
     """Note the plan column of cell ``j`` for the observation (once per step)."""
     p = site.column_of[j]
@@ -37,7 +37,7 @@ def mark_column(site, buf, j):
         buf.n_dirty[0] += 1
 
 
-@kernel
+@inlined
 def mark_component(site, st, buf, b, comp):
     """Note a component whose cells or status changed, and the columns it stands in."""
     buf.changed[comp] = True
@@ -46,8 +46,10 @@ def mark_component(site, st, buf, b, comp):
 
 
 @kernel
-def refresh_ready(site, st, b):
-    """Target readiness and, per component, whether a compatible target is ready."""
+def refresh_ready(site, st, buf, b):
+    """Target readiness and, per component, whether a compatible target is ready (noted in
+    ``buf.ready_changed``)."""
+    buf.ready_changed[0] = True
     C = len(site.length)
     for t in range(C):
         st.target_ready[b, t] = paper_rules.target_ready(site, st, b, t)
@@ -60,7 +62,7 @@ def refresh_ready(site, st, b):
         st.has_ready[b, c] = ready
 
 
-@kernel
+@inlined
 def _place(site, st, buf, b, comp, source, delta):
     """Move ``comp`` to ``source[b, comp] + delta`` (its pick-up pose, or its cells moved)."""
     cells = st.cells
@@ -76,7 +78,7 @@ def _place(site, st, buf, b, comp, source, delta):
     buf.changed[comp] = True
 
 
-@kernel
+@inlined
 def in_reach(site, st, b, crane, comp):
     """``Legality.in_reach``: the pick-up pose is in the crane's zone and a compatible target
     there is free (a waiting component's: ready). Always True without reach."""
@@ -92,7 +94,7 @@ def in_reach(site, st, b, crane, comp):
     return False
 
 
-@kernel
+@inlined
 def move_allowed(site, st, b, crane, comp, move):
     """The move of an in-transit component is not blocked and stays in the crane's zone."""
     if not paper_rules.move_ok(site, st, b, comp, st.cells, move):
@@ -105,7 +107,7 @@ def move_allowed(site, st, b, crane, comp, move):
     return True
 
 
-@kernel
+@inlined
 def claimable(site, st, b, comp):
     """``Legality.claimable``: initial, unclaimed, its pick-up pose free, somewhere to go."""
     return (
@@ -116,7 +118,7 @@ def claimable(site, st, b, comp):
     )
 
 
-@kernel
+@inlined
 def _arrival(site, st, buf, b, crane, comp):
     """``Simulator._check_arrival``: on a ready compatible target it may fill, it arrives."""
     t = site.target_at[st.cells[b, comp, 0]]
@@ -135,11 +137,11 @@ def _arrival(site, st, buf, b, crane, comp):
     st.status[b, comp] = ARRIVED
     st.filled[b, comp] = t
     st.filled_by[b, t] = comp
-    refresh_ready(site, st, b)
+    refresh_ready(site, st, buf, b)
     buf.event_counts[b, crane, _ARRIVED] += 1
 
 
-@kernel
+@inlined
 def _continue_assembly(site, st, buf, b, crane):
     st.assembling[b, crane] -= 1
     if st.assembling[b, crane] != 0:
@@ -150,13 +152,13 @@ def _continue_assembly(site, st, buf, b, crane):
     st.held[b, crane] = -1
     st.n_assembled[b] += 1
     mark_component(site, st, buf, b, comp)
-    refresh_ready(site, st, b)
+    refresh_ready(site, st, buf, b)
     buf.event_counts[b, crane, _ASSEMBLED] += 1
     buf.progress_by[buf.n_progress[0]] = crane
     buf.n_progress[0] += 1
 
 
-@kernel
+@inlined
 def _claim(site, st, buf, b, crane, comp):
     """``Simulator._claim`` (multi-agent mode): the checks in its order, then the lift."""
     events = buf.event_counts
@@ -182,7 +184,7 @@ def _claim(site, st, buf, b, crane, comp):
         _arrival(site, st, buf, b, crane, comp)
 
 
-@kernel
+@inlined
 def act(site, st, buf, b, crane, action):
     """One crane's action (``Simulator._act`` with ``auto=False``; a held component is never
     initial there, since a claim lifts it at once)."""
@@ -213,7 +215,7 @@ def act(site, st, buf, b, crane, action):
         _claim(site, st, buf, b, crane, action - CLAIM_BASE)
 
 
-@kernel
+@inlined
 def write_masks(site, st, masks, b):
     """``Legality.action_masks`` of every crane (``st.claimable`` is up to date)."""
     C = len(site.length)

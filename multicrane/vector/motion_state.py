@@ -53,12 +53,15 @@ class MotionBuffers(NamedTuple):
     terminated: np.ndarray  # (B, N) bool
     truncated: np.ndarray  # (B, N) bool
     event_counts: np.ndarray  # (B, N, len(EventType)) int32: the step's events
-    own_written: np.ndarray  # (B, N, W) int64: observation entries of the own planes set
-    own_count: np.ndarray  # (B, N) int64: how many of them
+    own_written: np.ndarray  # (B, N, W) int64: observation entries of the own planes set,
+    # the component's plane in the first L, the targets' plane after
+    own_count: np.ndarray  # (B, N, 2) int64: how many of them, per plane
+    own_comp: np.ndarray  # (B, N) int64: the component the own planes show, -1 none
     order: np.ndarray  # (N,) int64 scratch: the step's crane order
     progress_by: np.ndarray  # (N,) int64 scratch: cranes that assembled, in order
     n_progress: np.ndarray  # (1,) int64 scratch: how many
     changed: np.ndarray  # (C,) bool scratch: components to repaint
+    ready_changed: np.ndarray  # (1,) bool scratch: target readiness was refreshed
     dirty: np.ndarray  # (X * Y,) bool scratch: plan columns to recompute
     dirty_list: np.ndarray  # (X * Y,) int64 scratch: the same as a list
     n_dirty: np.ndarray  # (1,) int64 scratch: its length
@@ -97,11 +100,13 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
         truncated=np.zeros((n, N), dtype=bool),
         event_counts=np.zeros((n, N, N_EVENT_TYPES), dtype=np.int32),
         own_written=np.zeros((n, N, L * (1 + site.compatible.shape[1])), dtype=np.int64),
-        own_count=np.zeros((n, N), dtype=np.int64),
+        own_count=np.zeros((n, N, 2), dtype=np.int64),
+        own_comp=np.full((n, N), -1, dtype=np.int64),
         order=np.zeros(N, dtype=np.int64),
         progress_by=np.zeros(N, dtype=np.int64),
         n_progress=np.zeros(1, dtype=np.int64),
         changed=np.zeros(C, dtype=bool),
+        ready_changed=np.zeros(1, dtype=bool),
         dirty=np.zeros(XY, dtype=bool),
         dirty_list=np.zeros(XY, dtype=np.int64),
         n_dirty=np.zeros(1, dtype=np.int64),

@@ -13,13 +13,13 @@ state as ``SiteState.at_start`` and ``Simulator.reset`` do.
 from __future__ import annotations
 
 from multicrane.vector import motion_rules as rules
-from multicrane.vector.compiled import kernel
+from multicrane.vector.compiled import inlined, kernel
 from multicrane.vector.motion_observe import observe_reset, observe_step
 from multicrane.vector.paper_reset import draw_start, lay_out
 from multicrane.vector.pcg64 import permutation
 
 
-@kernel
+@inlined
 def _reward(site, st, buf, b, complete):
     """``motion_mode.physical_step``'s reward: the team reward, and each crane's term."""
     N = site.n_cranes
@@ -56,7 +56,7 @@ def _reward(site, st, buf, b, complete):
     return r
 
 
-@kernel
+@inlined
 def step_copy(site, st, buf, b, actions):
     """One joint step of copy ``b``; returns True when its episode ended."""
     N = site.n_cranes
@@ -69,6 +69,7 @@ def step_copy(site, st, buf, b, actions):
     else:
         buf.order[0] = 0
     buf.n_progress[0] = 0
+    buf.ready_changed[0] = False
     for i in range(N):
         crane = buf.order[i]
         rules.act(site, st, buf, b, crane, actions[b, crane])
@@ -115,7 +116,7 @@ def reset_copy(site, st, buf, b):
         st.assembling[b, k] = 0
     st.n_assembled[b] = site.n_prebuilt
     st.step_count[b] = 0
-    rules.refresh_ready(site, st, b)
+    rules.refresh_ready(site, st, buf, b)
     observe_reset(site, st, buf, b)
     rules.write_masks(site, st, buf.masks, b)
     return True

@@ -14,13 +14,13 @@ changed, and channel 5 (``k`` on arrived cells) wherever an arrived component st
 from __future__ import annotations
 
 from multicrane.core.codes import N_MOVES, Status
-from multicrane.vector.compiled import kernel
+from multicrane.vector.compiled import inlined, kernel
 
 INITIAL, IN_TRANSIT, ARRIVED, ASSEMBLED = (int(s) for s in Status)
 CHANNELS = 6
 
 
-@kernel
+@inlined
 def fits(st, b, comp, cells, row):
     """Every cell of ``cells[b, row]`` is free or held by ``comp`` already."""
     own = comp + 1
@@ -34,7 +34,7 @@ def fits(st, b, comp, cells, row):
     return True
 
 
-@kernel
+@inlined
 def move_ok(site, st, b, comp, cells, move):
     """The move of ``comp`` judged from ``cells[b, comp]`` (its cells or pick-up pose)."""
     d = site.move_delta[move]
