@@ -1,21 +1,24 @@
 """The motion mode's observations in kernels: every crane's vector, written where it changed.
 
-The layout is ``multicrane.envs.observation``'s (``MULTI_AGENT_PLANES``, no events block):
-seven shared planes, two per-crane planes, the component table and the crane vector, one
-``[N, D]`` block per copy. The shared planes and the table are a function of the state, so a
-step recomputes only the plan columns the rules marked (``buf.dirty``) and the table rows of
-the components they marked (``buf.changed``), plus those whose claimability flipped, and
-writes them into every crane's row. Claimability is rechecked only where it may have changed
-(the component changed, target readiness was refreshed, or a pick-up cell's column is dirty).
-A crane's own planes are repainted only when they change: its component's plane when it
-holds another component or that one moved, its targets' plane when it holds another or
-target readiness was refreshed; its crane vector is rewritten every step.
+The layout is ``multicrane.envs.observation``'s (``MULTI_AGENT_PLANES``): seven shared
+planes, two per-crane planes, the component table, the crane vector and, with site events,
+the events block (``motion_events.write_events_block``), one ``[N, D]`` block per copy. A
+component off site (not delivered yet) holds no cell and its table row is all zero. The
+shared planes and the table are a function of the state, so a step recomputes only the plan
+columns the rules marked (``buf.dirty``) and the table rows of the components they marked
+(``buf.changed``), plus those whose claimability flipped, and writes them into every crane's
+row. Claimability is rechecked only where it may have changed (the component changed, target
+readiness was refreshed, or a pick-up cell's column is dirty). A crane's own planes are
+repainted only when they change: its component's plane when it holds another component or
+that one moved, its targets' plane when it holds another or target readiness was refreshed;
+its crane vector is rewritten every step.
 """
 
 from __future__ import annotations
 
 from multicrane.envs.observation import COMPONENT_FEATURES, N_OWN, N_SHARED
 from multicrane.vector.compiled import inlined, kernel
+from multicrane.vector.motion_events import write_events_block
 from multicrane.vector.motion_rules import claimable, mark_component
 from multicrane.vector.paper_rules import ARRIVED, ASSEMBLED, IN_TRANSIT, INITIAL
 
@@ -53,11 +56,16 @@ def refresh_claimable(site, st, buf, b):
 
 @inlined
 def _write_row(site, st, obs, b, c):
-    """Component ``c``'s table row in every crane's observation."""
+    """Component ``c``'s table row in every crane's observation (zero while off site)."""
+    o = site.rows_start + c * COMPONENT_FEATURES
+    if not st.delivered[b, c]:
+        for k in range(site.n_cranes):
+            for i in range(COMPONENT_FEATURES):
+                obs[b, k, o + i] = 0.0
+        return
     s = st.status[b, c]
     last = st.cells[b, c, site.length[c] - 1]
     first = st.cells[b, c, 0]
-    o = site.rows_start + c * COMPONENT_FEATURES
     for k in range(site.n_cranes):
         obs[b, k, o] = s == INITIAL
         obs[b, k, o + 1] = s == IN_TRANSIT
@@ -186,6 +194,8 @@ def observe_step(site, st, buf, b):
         buf.dirty[p] = False
         _refresh_column(site, st, buf, b, p)
     buf.n_dirty[0] = 0
+    if site.has_events:
+        write_events_block(site, st, buf, b, False)
 
 
 @kernel
@@ -207,3 +217,5 @@ def observe_reset(site, st, buf, b):
     for k in range(site.n_cranes):
         _write_own(site, st, buf, b, k, True)
     buf.ready_changed[0] = False
+    if site.has_events:
+        write_events_block(site, st, buf, b, True)

@@ -1,9 +1,12 @@
 """The multi-agent process's rules for one copy, compiled: claims, moves, assembly, legality.
 
 Each function acts on copy ``b`` of a ``MotionState`` with the scenario's ``MotionSite`` as
-``multicrane.sim.simulator.Simulator`` (``auto=False``, no site events) and
-``multicrane.sim.legality`` do for one site: ``act`` is ``Simulator._act`` for one crane,
-event for event, and ``write_masks`` is ``Legality.action_masks``. Readiness of targets is
+``multicrane.sim.simulator.Simulator`` (``auto=False``) and ``multicrane.sim.legality`` do
+for one site: ``act`` is ``Simulator._act`` for one crane, event for event, and
+``write_masks`` is ``Legality.action_masks``. Site events enter as the state's present
+(``st.delivered``, ``st.down``, ``st.closed`` while ``st.closing``): a crane that is down may
+only wait, a component off site cannot be claimed, no component cell enters or leaves a
+closed cell, and a target with a closed cell is not ready. Readiness of targets is
 kept in the state (``refresh_ready`` after every arrival and assembly, as the simulator's
 ``_update_targets``). Whatever a rule changes is noted for the observation: the component
 (``buf.changed``) and the plan columns of the cells it left or took (``buf.dirty``).
@@ -52,7 +55,9 @@ def refresh_ready(site, st, buf, b):
     buf.ready_changed[0] = True
     C = len(site.length)
     for t in range(C):
-        st.target_ready[b, t] = paper_rules.target_ready(site, st, b, t)
+        st.target_ready[b, t] = paper_rules.target_ready(site, st, b, t) and (
+            not st.closing[b] or open_cells(st, b, site.target_cells[t])
+        )
     for c in range(C):
         ready = False
         for t in site.compatible[c]:
@@ -60,6 +65,28 @@ def refresh_ready(site, st, buf, b):
                 break
             ready |= st.target_ready[b, t]
         st.has_ready[b, c] = ready
+
+
+@inlined
+def open_cells(st, b, cells):
+    """``Legality.open_cells``: no cell of the -1 padded row ``cells`` is closed now."""
+    for j in cells:
+        if j < 0:
+            break
+        if st.closed[b, j]:
+            return False
+    return True
+
+
+@inlined
+def lift_ok(st, b, comp):
+    """``Legality._lift_ok``: the pick-up pose is free, and neither it nor the component's
+    cells are closed."""
+    if not paper_rules.fits(st, b, comp, st.pickup, comp):
+        return False
+    return not st.closing[b] or (
+        open_cells(st, b, st.pickup[b, comp]) and open_cells(st, b, st.cells[b, comp])
+    )
 
 
 @inlined
@@ -99,6 +126,12 @@ def move_allowed(site, st, b, crane, comp, move):
     """The move of an in-transit component is not blocked and stays in the crane's zone."""
     if not paper_rules.move_ok(site, st, b, comp, st.cells, move):
         return False
+    if st.closing[b]:
+        d = site.move_delta[move]
+        for i in range(site.length[comp]):
+            j = st.cells[b, comp, i]
+            if st.closed[b, j] or st.closed[b, j + d]:
+                return False
     if site.has_reach:
         d = site.move_delta[move]
         for i in range(site.length[comp]):
@@ -109,11 +142,13 @@ def move_allowed(site, st, b, crane, comp, move):
 
 @inlined
 def claimable(site, st, b, comp):
-    """``Legality.claimable``: initial, unclaimed, its pick-up pose free, somewhere to go."""
+    """``Legality.claimable``: initial, unclaimed, on site, its pick-up pose free and open,
+    somewhere to go."""
     return (
         st.status[b, comp] == INITIAL
         and st.holder[b, comp] < 0
-        and paper_rules.fits(st, b, comp, st.pickup, comp)
+        and st.delivered[b, comp]
+        and lift_ok(st, b, comp)
         and (not site.waits[comp] or st.has_ready[b, comp])
     )
 
@@ -169,10 +204,11 @@ def _claim(site, st, buf, b, crane, comp):
     elif (
         st.status[b, comp] != INITIAL
         or (site.waits[comp] and not st.has_ready[b, comp])
+        or not st.delivered[b, comp]
         or not in_reach(site, st, b, crane, comp)
     ):
         events[b, crane, _ILLEGAL] += 1
-    elif not paper_rules.fits(st, b, comp, st.pickup, comp):
+    elif not lift_ok(st, b, comp):
         events[b, crane, _LIFT_BLOCKED] += 1
     else:
         events[b, crane, _CLAIMED] += 1
@@ -189,6 +225,10 @@ def act(site, st, buf, b, crane, action):
     """One crane's action (``Simulator._act`` with ``auto=False``; a held component is never
     initial there, since a claim lifts it at once)."""
     events = buf.event_counts
+    if st.down[b, crane]:  # broken down: only wait; an assembly pauses, a load stays
+        if action != WAIT:
+            events[b, crane, _ILLEGAL] += 1
+        return
     if st.assembling[b, crane] != 0:
         if action != WAIT:
             events[b, crane, _ILLEGAL] += 1
@@ -223,7 +263,7 @@ def write_masks(site, st, masks, b):
         for a in range(masks.shape[2]):
             masks[b, k, a] = 0
         masks[b, k, WAIT] = 1
-        if st.assembling[b, k] != 0:
+        if st.assembling[b, k] != 0 or st.down[b, k]:
             continue
         comp = st.held[b, k]
         if comp < 0:

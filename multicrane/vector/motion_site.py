@@ -9,7 +9,8 @@ fields carry the names the start-drawing kernel (``multicrane.vector.paper_reset
 reads.
 
 Supported: ``decisions="motion"``, ``auto=False``, any crane count the scenario accepts, with
-or without crane reach, both rewards and reward modes; not (yet) site events.
+or without crane reach, both rewards and reward modes, with or without site events (the
+schedules themselves are drawn per episode, ``multicrane.vector.event_schedules``).
 """
 
 from __future__ import annotations
@@ -81,14 +82,16 @@ class MotionSite(NamedTuple):
     scaled: np.ndarray  # (P, 3) float32: a cell's (x, y, z) divided by the site size
     beam: np.ndarray  # (C,) float32: the component table's beam feature
     ratio_limit: int  # max(move_limit, 1): the crane vector's moves divisor
+    # -- site events (``multicrane.sim.events``) --------------------------------------------
+    has_events: bool  # the env has an ``EventSpec``: schedules, and the events block
+    events_start: int  # the observation's events block (delivered, available, closed plan)
+    plan_y: int  # Y: a closure's column (x, y) is plan index x * Y + y
 
 
 def compile_motion_site(env: MultiCraneEnv) -> MotionSite:
     """The arrays of ``env``'s scenario and options (ValueError for what the kernels do not
     model)."""
     sim, scenario = env.sim, env.scenario
-    if sim.events is not None:
-        raise ValueError(f"{scenario.name}: the motion vector env does not model site events yet")
     if scenario.n_components > MAX_COMPONENTS:
         raise ValueError(f"{scenario.name}: at most {MAX_COMPONENTS} components in the vector env")
     site = sim.site
@@ -125,6 +128,9 @@ def compile_motion_site(env: MultiCraneEnv) -> MotionSite:
         scaled=_scaled(site, X, Y, H),
         beam=np.array([kind_spec(k).beam_feature for k in site.kind], dtype=np.float32),
         ratio_limit=max(site.move_limit, 1),
+        has_events=sim.events is not None,
+        events_start=lay.events.start,
+        plan_y=Y,
     )
 
 

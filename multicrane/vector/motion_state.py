@@ -2,9 +2,11 @@
 
 ``MotionState`` is ``multicrane.sim.state.SiteState`` of the multi-agent process for ``B``
 copies, struct of arrays, plus the legality caches the simulator keeps (target readiness,
-claimability) and each copy's generator; ``MotionBuffers`` holds what a step hands out
+claimability), each copy's generator and its site events (``SiteEvents``: the episode's
+schedule and what of it holds now); ``MotionBuffers`` holds what a step hands out
 (observations ``[B, N, D]``, masks ``[B, N, A]``, rewards, flags, event counts) and the
-kernels' scratch space. Both are allocated once, written in place, and never reallocated.
+kernels' scratch space. Both are allocated once and written in place; only the schedule's
+interval tables grow when a drawn schedule needs more rows (``event_schedules``).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from multicrane.core.codes import CLAIM_BASE
+from multicrane.core.codes import CLAIM_BASE, SiteEventType
 from multicrane.envs.infos import N_EVENT_TYPES
 from multicrane.vector.motion_site import MotionSite
 from multicrane.vector.paper_state import component_state, start_scratch
@@ -40,6 +42,18 @@ class MotionState(NamedTuple):
     claimable: np.ndarray  # (B, C) bool: as handed out by the last observation
     pickup_in_zone: np.ndarray  # (B, N, C) bool: the pick-up pose lies in the crane's zone
     rng: np.ndarray  # (B, 5) uint64: each copy's PCG64 (``multicrane.vector.pcg64``)
+    # -- site events (without them: all delivered, none down, nothing closed) --------------
+    delivered: np.ndarray  # (B, C) bool: on site (else off site: not in ``occ``)
+    down: np.ndarray  # (B, N) bool: the crane is broken down now
+    closing: np.ndarray  # (B,) bool: some cell is closed now
+    closed: np.ndarray  # (B, P) bool: the cells closed now ((B, 0) without events)
+    arrival: np.ndarray  # (B, C) int64: the schedule's delivery steps
+    outages: np.ndarray  # (B, K, 3) int64: the schedule's (crane, start, end) rows
+    n_outages: np.ndarray  # (B,) int64
+    closures: np.ndarray  # (B, K, 8) int64: (x0, y0, z0, x1, y1, z1, start, end) rows
+    n_closures: np.ndarray  # (B,) int64
+    next_change: np.ndarray  # (B,) int64: the next step an outage or closure starts or ends
+    n_pending: np.ndarray  # (B,) int64: components not delivered yet
 
 
 class MotionBuffers(NamedTuple):
@@ -53,6 +67,8 @@ class MotionBuffers(NamedTuple):
     terminated: np.ndarray  # (B, N) bool
     truncated: np.ndarray  # (B, N) bool
     event_counts: np.ndarray  # (B, N, len(EventType)) int32: the step's events
+    site_counts: np.ndarray  # (B, len(SiteEventType)) int32: the step's (or reset's) site events
+    scheduling: np.ndarray  # (B,) bool: copies whose reset waits for its drawn schedule
     own_written: np.ndarray  # (B, N, W) int64: observation entries of the own planes set,
     # the component's plane in the first L, the targets' plane after
     own_count: np.ndarray  # (B, N, 2) int64: how many of them, per plane
@@ -62,6 +78,7 @@ class MotionBuffers(NamedTuple):
     n_progress: np.ndarray  # (1,) int64 scratch: how many
     changed: np.ndarray  # (C,) bool scratch: components to repaint
     ready_changed: np.ndarray  # (1,) bool scratch: target readiness was refreshed
+    closed_changed: np.ndarray  # (1,) bool scratch: the closed cells changed
     dirty: np.ndarray  # (X * Y,) bool scratch: plan columns to recompute
     dirty_list: np.ndarray  # (X * Y,) int64 scratch: the same as a list
     n_dirty: np.ndarray  # (1,) int64 scratch: its length
@@ -89,6 +106,7 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
         has_ready=np.zeros((n, C), dtype=bool),
         claimable=np.zeros((n, C), dtype=bool),
         pickup_in_zone=np.ones((n, N, C), dtype=bool),
+        **_event_state(site, n),
     )
     buffers = MotionBuffers(
         obs=np.zeros((n, N, D), dtype=np.float32),
@@ -99,6 +117,8 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
         terminated=np.zeros((n, N), dtype=bool),
         truncated=np.zeros((n, N), dtype=bool),
         event_counts=np.zeros((n, N, N_EVENT_TYPES), dtype=np.int32),
+        site_counts=np.zeros((n, len(SiteEventType)), dtype=np.int32),
+        scheduling=np.zeros(n, dtype=bool),
         own_written=np.zeros((n, N, L * (1 + site.compatible.shape[1])), dtype=np.int64),
         own_count=np.zeros((n, N, 2), dtype=np.int64),
         own_comp=np.full((n, N), -1, dtype=np.int64),
@@ -107,6 +127,7 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
         n_progress=np.zeros(1, dtype=np.int64),
         changed=np.zeros(C, dtype=bool),
         ready_changed=np.zeros(1, dtype=bool),
+        closed_changed=np.zeros(1, dtype=bool),
         dirty=np.zeros(XY, dtype=bool),
         dirty_list=np.zeros(XY, dtype=np.int64),
         n_dirty=np.zeros(1, dtype=np.int64),
@@ -114,3 +135,22 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
         **start_scratch(site),
     )
     return state, buffers
+
+
+def _event_state(site: MotionSite, n: int) -> dict[str, np.ndarray]:
+    """The site-event fields of ``n`` copies: a static site's values (every component
+    delivered, no crane down, nothing closed, no schedule) until a schedule is written."""
+    C = len(site.length)
+    return {
+        "delivered": np.ones((n, C), dtype=bool),
+        "down": np.zeros((n, site.n_cranes), dtype=bool),
+        "closing": np.zeros(n, dtype=bool),
+        "closed": np.zeros((n, len(site.static_occ) if site.has_events else 0), dtype=bool),
+        "arrival": np.zeros((n, C), dtype=np.int64),
+        "outages": np.zeros((n, 1, 3), dtype=np.int64),
+        "n_outages": np.zeros(n, dtype=np.int64),
+        "closures": np.zeros((n, 1, 8), dtype=np.int64),
+        "n_closures": np.zeros(n, dtype=np.int64),
+        "next_change": np.zeros(n, dtype=np.int64),
+        "n_pending": np.zeros(n, dtype=np.int64),
+    }

@@ -4,16 +4,21 @@
 every copy: count the step, draw the crane order (``rng.permutation(N)``, none for one crane),
 let each crane act in that order, then the reward of ``multicrane.envs.reward`` (team and
 per-crane terms), termination and truncation, the observations (only what changed) and the
-masks. A copy whose episode ended is reset in the same call (``autoreset``) after its last
-observations are kept in ``final_obs``. ``reset_copy`` draws the start with the paper mode's
-kernel (``draw_start``, the same draws as ``multicrane.sim.start.draw_start``) and builds the
-state as ``SiteState.at_start`` and ``Simulator.reset`` do.
+masks; with site events the schedule's changes come after the actions
+(``motion_events.apply_events``). A copy whose episode ended is reset in the same call
+(``autoreset``) after its last observations are kept in ``final_obs``. ``reset_copy`` draws
+the start with the paper mode's kernel (``draw_start``, the same draws as
+``multicrane.sim.start.draw_start``) and builds the state as ``SiteState.at_start`` and
+``Simulator.reset`` do. With site events a reset stops after the start
+(``buf.scheduling[b]``): the schedule is drawn next, from the copy's generator, by numpy
+itself (``multicrane.vector.event_schedules``), and ``finish_resets`` completes them.
 """
 
 from __future__ import annotations
 
 from multicrane.vector import motion_rules as rules
 from multicrane.vector.compiled import inlined, kernel
+from multicrane.vector.motion_events import apply_events, start_events
 from multicrane.vector.motion_observe import observe_reset, observe_step
 from multicrane.vector.paper_reset import draw_start, lay_out
 from multicrane.vector.pcg64 import permutation
@@ -73,6 +78,8 @@ def step_copy(site, st, buf, b, actions):
     for i in range(N):
         crane = buf.order[i]
         rules.act(site, st, buf, b, crane, actions[b, crane])
+    if site.has_events:
+        apply_events(site, st, buf, b)
     complete = st.n_assembled[b] == len(site.length)
     r = _reward(site, st, buf, b, complete)
     count = st.step_count[b]
@@ -106,8 +113,20 @@ def _lay_out(site, st, buf, b):
 
 
 @kernel
+def _finish_reset(site, st, buf, b, count):
+    """The new episode's time 0 (with a schedule written, when there are site events; its
+    site events counted when ``count``), readiness, observations and masks."""
+    if site.has_events:
+        start_events(site, st, buf, b, count)
+    rules.refresh_ready(site, st, buf, b)
+    observe_reset(site, st, buf, b)
+    rules.write_masks(site, st, buf.masks, b)
+
+
+@kernel
 def reset_copy(site, st, buf, b):
-    """Start a new episode in copy ``b`` from its generator; False when no start is found."""
+    """Start a new episode in copy ``b`` from its generator (with site events: up to the
+    start, then ``buf.scheduling[b]``); False when no start is found."""
     if not draw_start(site, st, buf, b):
         return False
     _lay_out(site, st, buf, b)
@@ -116,10 +135,21 @@ def reset_copy(site, st, buf, b):
         st.assembling[b, k] = 0
     st.n_assembled[b] = site.n_prebuilt
     st.step_count[b] = 0
-    rules.refresh_ready(site, st, buf, b)
-    observe_reset(site, st, buf, b)
-    rules.write_masks(site, st, buf.masks, b)
+    if site.has_events:
+        buf.scheduling[b] = True
+    else:
+        _finish_reset(site, st, buf, b, False)
     return True
+
+
+@kernel
+def finish_resets(site, st, buf, count):
+    """Complete the resets of the copies in ``buf.scheduling`` once their schedules are
+    written (their time-0 site events counted when ``count``: a reset, not an autoreset)."""
+    for b in range(len(buf.scheduling)):
+        if buf.scheduling[b]:
+            buf.scheduling[b] = False
+            _finish_reset(site, st, buf, b, count)
 
 
 @kernel

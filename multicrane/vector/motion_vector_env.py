@@ -19,10 +19,12 @@ from gymnasium import spaces
 from multicrane.core.schema import Scenario
 from multicrane.envs.boundary import as_integer, require_reset
 from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.sim.events import EventSpec
 from multicrane.vector.copies import Copies
+from multicrane.vector.event_schedules import draw_schedules
 from multicrane.vector.motion_site import compile_motion_site
 from multicrane.vector.motion_state import allocate
-from multicrane.vector.motion_step import reset_copies, step_batch
+from multicrane.vector.motion_step import finish_resets, reset_copies, step_batch
 
 
 class MotionVectorEnv(Copies):
@@ -36,9 +38,14 @@ class MotionVectorEnv(Copies):
     ``action_masks()`` is ``[B, N, 8 + C]`` (int8). Actions are ``[B, N]`` integers.
 
     **Options.** ``scenario``, ``n_cranes``, ``max_steps``, ``max_cycles``, ``reward``,
-    ``reward_mode``, ``strict`` as ``MultiCraneEnv``; crane reach comes from the scenario.
-    Site events are refused (``events`` must be None with no ``[events]`` table, or
-    ``"none"``), as are the other decision levels and the automatic mode (ValueError).
+    ``reward_mode``, ``strict`` and ``events`` as ``MultiCraneEnv``; crane reach comes from the
+    scenario. The other decision levels and the automatic mode are not modelled.
+
+    **Site events** (``events``: None for the scenario's ``[events]`` table if any, a level
+    ``"none"``, ``"low"``, ``"high"``, or an ``EventSpec``; docs/uncertainty.md): each copy's
+    schedule is drawn at each reset from its generator as the one-site env draws it (numpy's
+    own draws, ``multicrane.vector.event_schedules``), and applied in the kernels: late
+    deliveries, breakdowns, closed zones, the events block of the observation, the masks.
 
     **Seeds.** ``reset(seed=s)`` seeds copy ``i`` with the ``i``-th child of
     ``np.random.SeedSequence(s)``; ``reset(seed=[s0, s1, ...])`` gives copy ``i`` the
@@ -51,7 +58,9 @@ class MotionVectorEnv(Copies):
     ``infos["final_obs"]`` (copies where ``infos["_final_obs"]``).
 
     **Infos** (arrays over the copies): ``event_counts`` ``[B, N, len(EventType)]`` and
-    ``reward_term`` ``[B, N]``, as the one-site env's per-crane infos; ``final_obs``.
+    ``reward_term`` ``[B, N]``, as the one-site env's per-crane infos; ``final_obs``; with site
+    events ``site_event_counts`` ``[B, len(SiteEventType)]`` (the one-site env gives every
+    crane the same counts; after an autoreset, those of the step that ended the episode).
 
     **Buffers.** ``step`` and ``reset`` return the env's own arrays, written in place by the
     next call; ``copy=True`` returns fresh arrays instead.
@@ -71,12 +80,10 @@ class MotionVectorEnv(Copies):
         reward: str = "paper",
         reward_mode: str = "team",
         strict: bool = False,
-        events: str | None = None,
+        events: EventSpec | str | None = None,
         copy: bool = False,
     ):
         n = self._set_up_copies(num_envs, copy)
-        if events not in (None, "none"):
-            raise ValueError(f"the motion vector env does not model site events yet: {events!r}")
         self.reference = MultiCraneEnv(
             scenario, n_cranes, max_steps=max_steps, max_cycles=max_cycles, reward=reward,
             reward_mode=reward_mode, obs_format="flat", events=events,
@@ -96,6 +103,8 @@ class MotionVectorEnv(Copies):
         """Reset every copy (see the class doc for ``seed``)."""
         self._seed(seed)
         failed = reset_copies(self.site, self.state, self.buffers, self._all)
+        if failed < 0:
+            self._schedule_resets(count=True)
         return self._reset_outputs(failed, self.buffers.terms)
 
     def step(self, actions):
@@ -107,7 +116,21 @@ class MotionVectorEnv(Copies):
         bad_copy, bad_crane, failed = step_batch(self.site, self.state, self.buffers, a, True)
         if bad_copy >= 0:
             self._out_of_range(bad_copy, bad_crane, a[bad_copy, bad_crane])
+        if failed < 0:
+            self._schedule_resets(count=False)
         return self._step_outputs(failed)
+
+    def _schedule_resets(self, count: bool) -> None:
+        """With site events: draw the schedules of the copies the kernel reset up to their
+        start, and complete those resets (their time-0 site events counted when ``count``)."""
+        copies = np.flatnonzero(self.buffers.scheduling)
+        if len(copies) == 0:
+            return
+        sim = self.reference.sim
+        self.state = draw_schedules(
+            sim.events, sim.site, self.n_cranes, sim.horizon, self.state, copies
+        )
+        finish_resets(self.site, self.state, self.buffers, count)
 
     def _actions(self, actions) -> np.ndarray:
         """The actions as an int64 array of shape (num_envs, n_cranes); else the one-site
@@ -147,11 +170,14 @@ class MotionVectorEnv(Copies):
 
     def _infos(self) -> dict[str, np.ndarray]:
         buf, out = self.buffers, self._out
-        return {
+        infos = {
             "event_counts": out(buf.event_counts),
             "reward_term": out(buf.terms),
             **self._final_obs_infos(),
         }
+        if self.site.has_events:
+            infos["site_event_counts"] = out(buf.site_counts)
+        return infos
 
     def close(self) -> None:
         """Nothing to release (the arrays go with the env)."""

@@ -36,8 +36,9 @@ def _references(scenario: str, seeds: list[int], options: dict) -> list[MultiCra
     return [MultiCraneEnv(scenario, obs_format="flat", **options) for _ in seeds]
 
 
-def _same_outputs(vec, envs, obs, step_out, ref_outs, done) -> None:
-    """Every copy's arrays equal its one-site env's dicts (``final_obs`` where it ended)."""
+def _same_outputs(vec, envs, obs, step_out, ref_outs, done, seen=None) -> None:
+    """Every copy's arrays equal its one-site env's dicts (``final_obs`` where it ended);
+    with site events their counts too, added into ``seen`` when given."""
     agents = envs[0].possible_agents
     for b, ref in enumerate(ref_outs):
         ref_obs = ref[0]
@@ -51,6 +52,12 @@ def _same_outputs(vec, envs, obs, step_out, ref_outs, done) -> None:
                 assert terms[b, k] == te[a] and truncs[b, k] == tr[a], (b, a)
                 assert np.array_equal(infos["event_counts"][b, k], inf[a]["event_counts"])
                 assert infos["reward_term"][b, k] == inf[a]["reward_term"]
+                assert ("site_event_counts" in infos) == ("site_event_counts" in inf[a])
+                if "site_event_counts" in infos:
+                    counts = infos["site_event_counts"][b]
+                    assert np.array_equal(counts, inf[a]["site_event_counts"]), (b, a)
+                    if seen is not None and k == 0:
+                        seen += counts
 
 
 def _same_now(vec, envs) -> None:
@@ -83,15 +90,22 @@ def _actions(vec, policies, rng, greedy: float, wild: float) -> np.ndarray:
     return out
 
 
-def play_both(scenario, n_cranes, seeds, steps, greedy=0.8, wild=0.05, **options) -> int:
+def play_both(scenario, n_cranes, seeds, steps, greedy=0.8, wild=0.05, seen=None,
+              **options) -> int:  # fmt: skip
     """Step both sides ``steps`` times with the same joint actions; returns the episodes
-    that ended."""
+    that ended (and adds the site events of every step and reset into ``seen``)."""
     options = dict(options, n_cranes=n_cranes)
     vec = MotionVectorEnv(len(seeds), scenario, **options)
     envs = _references(scenario, seeds, options)
-    obs, _ = vec.reset(seed=seeds)
+    obs, infos = vec.reset(seed=seeds)
     starts = [env.reset(seed=s) for env, s in zip(envs, seeds, strict=True)]
     _same_outputs(vec, envs, obs, None, starts, np.zeros(len(seeds), dtype=bool))
+    if "site_event_counts" in infos:
+        for b, (_, ref_infos) in enumerate(starts):
+            counts = ref_infos["crane_0"]["site_event_counts"]
+            assert np.array_equal(infos["site_event_counts"][b], counts), ("reset", b)
+            if seen is not None:
+                seen += counts
     _same_now(vec, envs)
     rng = np.random.default_rng(seeds[0])
     policies = [GreedyPolicy(env, seed=s) for env, s in zip(envs, seeds, strict=True)]
@@ -104,10 +118,12 @@ def play_both(scenario, n_cranes, seeds, steps, greedy=0.8, wild=0.05, **options
             for b, env in enumerate(envs)
         ]
         done = infos["_final_obs"]
-        _same_outputs(vec, envs, obs, (rewards, terms, truncs, infos), outs, done)
+        _same_outputs(vec, envs, obs, (rewards, terms, truncs, infos), outs, done, seen)
         for b in np.flatnonzero(done):
             ended += 1
-            first, _ = envs[b].reset()
+            first, first_infos = envs[b].reset()
+            if seen is not None and "site_event_counts" in first_infos["crane_0"]:
+                seen += first_infos["crane_0"]["site_event_counts"]
             for k, a in enumerate(envs[b].possible_agents):
                 assert np.array_equal(obs[b, k], first[a]), ("autoreset", b, a)
         _same_now(vec, envs)

@@ -41,7 +41,7 @@ def test_an_int_seed_gives_each_copy_a_child_of_one_seed_sequence():
 
 @pytest.mark.parametrize(
     ("kwargs", "message"),
-    [({"events": "low"}, "site events"), ({"reward": "fast"}, "reward must be"),
+    [({"events": "medium"}, "events level"), ({"reward": "fast"}, "reward must be"),
      ({"n_cranes": 0}, "n_cranes"), ({"num_envs": 0}, "num_envs")],  # fmt: skip
 )
 def test_refusals(kwargs, message):
