@@ -55,30 +55,32 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+
 from multicrane.sim.simulator import NOBODY, Simulator
 from multicrane.tasks.carrier import Carrier
 from multicrane.tasks.carrier_events import EventCarrier
-from multicrane.tasks.reservations import goal_position, manhattan
 
 
-def ranked_pairs(sim: Simulator, candidates, taken: set[int], rank: str, list_rank: dict):
-    """Ready (component, target) pairs, best first: ``(distance, comp, target)`` tuples."""
-    pairs = []
-    for comp in candidates:
-        pick = sim.state.pickup[comp]
-        rel = tuple(j - pick[0] for j in pick)
-        here = sim.site.cell(pick[0])
-        for t in sim.ready_targets(comp):
-            if t in taken:
-                continue
-            goal = goal_position(rel, sim.site.target_cells[t])
-            if goal is not None:
-                pairs.append((manhattan(here, sim.site.cell(goal)), comp, t))
+def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
+    """Ready (component, target) pairs, best first: ``(distance, comp, target)`` tuples over
+    each candidate's ready compatible targets not in ``taken`` that a pose of its shape
+    covers (``Carrier.pair_distances``: from the pick-up pose to the target's pose); ranked
+    by (list rank, distance, target) or (distance, component, target)."""
+    if not candidates:
+        return []
+    comps = np.asarray(candidates, dtype=np.int64)
+    dist = carrier.pair_distances()[comps]
+    open_ = np.asarray(carrier.sim.target_ready, dtype=bool)
+    open_[list(taken)] = False
+    rows, targets = np.nonzero((dist >= 0) & open_)
+    comp, d = comps[rows], dist[rows, targets]
     if rank == "list":
-        pairs.sort(key=lambda p: (list_rank[p[1]], p[0], p[2]))
+        order = np.lexsort((targets, d, np.array([list_rank[c] for c in comp.tolist()])))
     else:
-        pairs.sort()
-    return pairs
+        order = np.lexsort((targets, comp, d))
+    ranked = (d[order].tolist(), comp[order].tolist(), targets[order].tolist())
+    return list(zip(*ranked, strict=True))
 
 
 def check_rank(rank: str) -> str:
@@ -188,7 +190,7 @@ def assign_in_rank(
     candidates = [c for c in sim.claimable_components() if c not in carrier.plans]
     if not candidates:
         return
-    pairs = ranked_pairs(sim, candidates, carrier.taken_targets(), rank, list_rank)
+    pairs = ranked_pairs(carrier, candidates, carrier.taken_targets(), rank, list_rank)
     used_c: set[int] = set()
     used_t: set[int] = set()
     for _, comp, t in pairs:

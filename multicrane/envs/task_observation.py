@@ -39,9 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from multicrane.core.codes import Status
 from multicrane.core.kinds import kind_spec
 from multicrane.envs.observation import N_OWN, N_SHARED, Observer
+from multicrane.envs.task_observation_kernel import component_rows_kernel
 from multicrane.sim.simulator import NOBODY
 from multicrane.tasks.book import TaskBook
 
@@ -54,7 +54,6 @@ CRANE_FEATURES = (
     "self", "busy", "time_left", "loaded", "lx", "ly", "lz", "base_x", "base_y", "radius",
 )  # fmt: skip
 TASK_FEATURES = ("component", "tx1", "ty1", "tz1", "tx2", "ty2", "tz2", "distance", "allowed")
-_INITIAL = int(Status.INITIAL)
 
 
 @dataclass(frozen=True)
@@ -95,8 +94,34 @@ class TaskLayout:
         return out
 
 
+@dataclass(frozen=True)
+class _EpisodeColumns:
+    """The observation's columns that only the episode's static path lengths decide."""
+
+    tasks: np.ndarray  # (N, P, 9) every crane's ``tasks`` table but its ``allowed`` column
+    pair_len: np.ndarray  # (P,) the task's shortest static path over the cranes (inf: none)
+    reach: np.ndarray  # (C, N) crane k can carry the component to some target
+
+    @classmethod
+    def of(cls, book: TaskBook, D: float, task_base: np.ndarray) -> _EpisodeColumns:
+        lens = np.where(book.static_ok, book.static_len, np.iinfo(np.int64).max)
+        N, C = book.static_ok.shape[0], book.sim.site.n_components
+        can = np.zeros((N, C), dtype=bool)
+        for k in range(N):
+            np.logical_or.at(can[k], book.tasks.comp, book.static_ok[k])
+        tasks = np.repeat(task_base[None], N, axis=0)
+        tasks[:, :, 7] = np.where(book.static_ok, np.minimum(book.static_len / D, 1.0), 1.0)
+        return cls(tasks, lens.min(axis=0).astype(np.float64), np.ascontiguousarray(can.T))
+
+
 class TaskObserver:
-    """Builds the task observation of every crane from the simulator and the task book."""
+    """Builds the task observation of every crane from the simulator and the task book.
+
+    What a site fixes (coordinates of every cell, the targets' nodes, the tasks' own
+    columns) is computed once; what an episode fixes (the static path lengths: the tasks'
+    distances, the components' best path and reach columns) once per episode, at the first
+    observation after ``reset``; each observation then writes every crane's row of one
+    array."""
 
     def __init__(self, book: TaskBook, site_planes: bool = False):
         self.book = book
@@ -115,6 +140,7 @@ class TaskObserver:
             (X, Y) if sim.events is not None else None,
         )
         site = sim.site
+        self._coords = self._cell_coordinates()
         self._beam = np.array([kind_spec(k).beam_feature for k in site.kind], dtype=bool)
         self._targets = np.array(
             [self._nodes(cells) for cells in site.target_cells], dtype=np.float32
@@ -125,16 +151,31 @@ class TaskObserver:
             for k in range(sim.n_cranes):
                 (bx, by), r = specs[k].base, specs[k].radius
                 self._reach[k] = (bx / X, by / Y, min(r / max(X, Y), 1.0))
+        tasks = book.tasks
+        C = site.n_components
+        self._task_base = np.zeros((len(tasks), len(TASK_FEATURES)), dtype=np.float32)
+        self._task_base[:, 0] = tasks.comp / max(C - 1, 1)
+        self._task_base[:, 1:7] = self._targets[tasks.target]
+        self._episode: _EpisodeColumns | None = None
+        self._size = self.layout.size
 
-    def _nodes(self, cells: list[int]) -> list[float]:
+    def _cell_coordinates(self) -> np.ndarray:
+        """(cells, 3) float32: each linear index's site cell (``Site.cell``) / the site size."""
         site = self.sim.site
-        a = np.array(site.cell(cells[0]), dtype=np.float32) / self.scale
-        b = np.array(site.cell(cells[-1]), dtype=np.float32) / self.scale
-        return [*a, *b]
+        sx, sy = site.lin(1, 0, 0) - site.lin(0, 0, 0), site.lin(0, 1, 0) - site.lin(0, 0, 0)
+        px, rest = np.divmod(np.arange(site.static.size), sx)
+        py, z = np.divmod(rest, sy)
+        cells = np.stack([px - 1, py - 1, z], axis=1).astype(np.float32)
+        return cells / self.scale
+
+    def _nodes(self, cells: list[int]) -> np.ndarray:
+        """Node 1 and node 2 (x, y, z each, divided by the site size) of a pose's cells."""
+        return np.concatenate([self._coords[cells[0]], self._coords[cells[-1]]])
 
     def reset(self, step_limit: int) -> None:
         if self.planes is not None:
             self.planes.reset(step_limit)
+        self._episode = None  # the task book's static paths are drawn after this reset
 
     def _closed_plan(self) -> np.ndarray:
         """(X * Y,) the top closed height per (x, y) column, divided by H."""
@@ -145,76 +186,57 @@ class TaskObserver:
         return (closed * z).max(axis=2).reshape(-1)
 
     def observe_all(self) -> list[np.ndarray]:
-        """One flat observation per crane, in crane order."""
+        """One flat observation per crane, in crane order (the rows of one array)."""
         sim, book = self.sim, self.book
+        if self._episode is None:
+            self._episode = _EpisodeColumns.of(book, self.D, self._task_base)
         comp = self._component_rows()
         cranes = self._crane_rows()
-        C, N = sim.site.n_components, sim.n_cranes
-        P = len(book.tasks)
-        tasks = np.zeros((P, len(TASK_FEATURES)), dtype=np.float32)
-        tasks[:, 0] = book.tasks.comp / max(C - 1, 1)
-        tasks[:, 1:7] = self._targets[book.tasks.target]
-        dist = np.where(book.static_ok, np.minimum(book.static_len / self.D, 1.0), 1.0)
+        N, P = sim.n_cranes, len(book.tasks)
         masks = book.masks()
-        head = [comp.ravel(), None, None]
-        closed = self._closed_plan() if self.layout.events is not None else None
         if self.planes is not None:
             self.planes.update(sim.take_changed(), sim.claimable_components())
-        out = []
-        for k in range(N):
-            cr = cranes.copy()
-            cr[k, 0] = 1.0
-            tk = tasks.copy()
-            tk[:, 7] = dist[k]
-            tk[:, 8] = masks[k, 1:]
-            head[1], head[2] = cr.ravel(), tk.ravel()
-            parts = list(head)
-            if closed is not None:
-                parts.append(closed)
-            if self.planes is not None:
-                parts.append(self._site_planes(k))
-            out.append(np.concatenate(parts).astype(np.float32, copy=False))
+        out = np.empty((N, self._size), dtype=np.float32)
+        at = comp.size + cranes.size
+        out[:, : comp.size] = comp.ravel()
+        out[:, comp.size : at] = cranes.ravel()
+        out[np.arange(N), comp.size + np.arange(N) * cranes.shape[1]] = 1.0  # self
+        tasks = out[:, at : at + self._task_base.size].reshape(N, P, len(TASK_FEATURES))
+        tasks[:] = self._episode.tasks
+        tasks[:, :, 8] = masks[:, 1:]
+        at += self._task_base.size
+        if self.layout.events is not None:
+            closed = self._closed_plan()
+            out[:, at : at + closed.size] = closed
+            at += closed.size
+        if self.planes is not None:
+            for k in range(N):
+                out[k, at:] = self._site_planes(k)
         self.masks = masks
-        return out
+        return list(out)
 
     def _component_rows(self) -> np.ndarray:
-        """The ``components`` table, shared by every crane."""
+        """The ``components`` table, shared by every crane (``component_rows_kernel``)."""
         sim, book = self.sim, self.book
         st = sim.state
         C, N = sim.site.n_components, sim.n_cranes
         events = self.layout.events is not None
         comp = np.zeros((C, len(COMPONENT_FEATURES) + N + events), dtype=np.float32)
-        status = np.asarray(st.status)
-        comp[:, 0] = self._beam
-        comp[np.arange(C), 1 + status] = 1.0
+        first = np.full(C, -1, dtype=np.int64)
+        last = np.full(C, -1, dtype=np.int64)
         for c in range(C):
-            cells = st.cells[c] if st.cells[c] else st.pickup[c]
+            cells = st.cells[c] or st.pickup[c]
             if cells:
-                comp[c, 5:11] = self._nodes(cells)
-        comp[:, 11:17] = self._targets
-        comp[:, 17] = sim.target_ready
-        comp[sim.claimable_components(), 18] = 1.0
-        for p in book.task:
-            if p != NOBODY:
-                comp[book.tasks.comp[p], 19] = 1.0
-        lens = np.where(book.static_ok, book.static_len, np.iinfo(np.int64).max)
-        free_t = np.asarray(st.filled_by) == NOBODY
-        best = np.full(C, np.inf)
-        pair_len = lens.min(axis=0).astype(np.float64)
-        pair_len[~free_t[book.tasks.target]] = np.inf
-        np.minimum.at(best, book.tasks.comp, pair_len)
-        path = np.where(np.isfinite(best), np.minimum(best / self.D, 1.0), 1.0)
-        path[status != _INITIAL] = 0.0
-        comp[:, 20] = path
-        can = np.zeros((N, C), dtype=bool)
-        for k in range(N):
-            np.logical_or.at(can[k], book.tasks.comp, book.static_ok[k])
-        comp[:, 21 : 21 + N] = can.T
-        if events:
-            late = ~np.asarray(st.delivered)
-            comp[late, :11] = 0.0  # only "not delivered" (and its own target) is known
-            comp[late, 17:] = 0.0
-            comp[:, -1] = st.delivered
+                first[c], last[c] = cells[0], cells[-1]
+        taken = [book.tasks.comp[p] for p in book.task if p != NOBODY]
+        component_rows_kernel(
+            comp, st.status, first, last, self._coords, self._beam, self._targets,
+            np.asarray(sim.target_ready, dtype=np.bool_),
+            np.asarray(sim.claimable_components(), dtype=np.int64),
+            np.asarray(taken, dtype=np.int64), st.filled_by == NOBODY, book.tasks.comp,
+            book.tasks.target, self._episode.pair_len, self._episode.reach, self.D, events,
+            np.asarray(st.delivered, dtype=np.bool_),
+        )  # fmt: skip
         return comp
 
     def _crane_rows(self) -> np.ndarray:
@@ -229,7 +251,7 @@ class TaskObserver:
             held = st.held[k]
             if held != NOBODY and st.cells[held]:
                 cranes[k, 3] = 1.0
-                cranes[k, 4:7] = self._nodes(st.cells[held])[:3]
+                cranes[k, 4:7] = self._coords[st.cells[held][0]]
         cranes[:, 7:10] = self._reach
         if events:
             cranes[:, -1] = [sim.crane_up(k) for k in range(N)]

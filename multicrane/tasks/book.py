@@ -187,14 +187,30 @@ class TaskBook:
                 target_ok[self.tasks.target[p]] = False
         return comp_ok, target_ok
 
+    def _open_pairs(self) -> np.ndarray:
+        """(P,) bool: the task's component and target are open (``_open``)."""
+        comp_ok, target_ok = self._open()
+        return comp_ok[self.tasks.comp] & target_ok[self.tasks.target]
+
     def allowed(self) -> np.ndarray:
         """(N, P) bool: the tasks each crane could take now were it idle."""
-        comp_ok, target_ok = self._open()
-        pair_ok = comp_ok[self.tasks.comp] & target_ok[self.tasks.target]
-        ok = self.static_ok & pair_ok[None, :]
+        ok = self.static_ok & self._open_pairs()[None, :]
         if self.sim.schedule is not None:
             ok[[not self.sim.crane_up(k) for k in range(self.sim.n_cranes)]] = False
         return ok
+
+    def allows(self, crane: int, p: int) -> bool:
+        """``allowed()[crane, p]``, without building the table."""
+        sim = self.sim
+        c, t = self.tasks.pairs[p]
+        if not self.static_ok[crane, p] or not sim.target_ready[t]:
+            return False
+        if sim.schedule is not None and not sim.crane_up(crane):
+            return False
+        for q in self.task:
+            if q != NOBODY and (self.tasks.comp[q] == c or self.tasks.target[q] == t):
+                return False
+        return c in sim.claimable_components()
 
     def masks(self) -> np.ndarray:
         """(N, 1 + P) int8: wait always; tasks only for idle cranes (see the module doc)."""
@@ -209,9 +225,13 @@ class TaskBook:
         return masks
 
     def any_open(self) -> bool:
-        """Some idle crane has an allowed task."""
+        """Some idle crane has an allowed task (``allowed``, for the idle rows only)."""
         idle = self.idle_cranes()
-        return bool(idle) and bool(self.allowed()[idle].any())
+        if self.sim.schedule is not None:
+            idle = [k for k in idle if self.sim.crane_up(k)]
+        if not idle:
+            return False
+        return bool((self.static_ok[idle] & self._open_pairs()).any())
 
     def time_left(self, crane: int) -> int:
         """Estimated simulated steps until the crane is idle (0 when idle)."""
@@ -235,7 +255,7 @@ class TaskBook:
             return True
         if (crane, p) in self._infeasible or self.task[crane] != NOBODY:
             return False
-        if not self.allowed()[crane, p]:
+        if not self.allows(crane, p):
             return False
         if crane in self._probe:
             self.carrier.cancel(crane)
@@ -268,7 +288,7 @@ class TaskBook:
             if a == 0 or self.task[k] != NOBODY:
                 continue
             p = a - 1
-            if not self.allowed()[k, p]:
+            if not self.allows(k, p):
                 events.append(("TASK_REFUSED", k, p))
                 continue
             self._take(k, p, T)

@@ -31,19 +31,20 @@ one is found), so that the component does not arrive there by accident.
 
 from __future__ import annotations
 
+import numpy as np
+
 from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, WAIT, Status
 from multicrane.sim.simulator import NOBODY, Simulator
+from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
 from multicrane.tasks.reservations import (
     INF,
     Plan,
-    ReservationTable,
-    ShapeCache,
     goal_position,
     manhattan,
     shape_of,
-    space_time_search,
     stop_poses,
 )
+from multicrane.tasks.shape_cache import ShapeCache
 
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
 
@@ -65,7 +66,9 @@ class Carrier:
         self.max_expansions = max_expansions
         self.stats = dict.fromkeys(STAT_NAMES, 0)
         self._move_of = {d: m for m, d in enumerate(sim.site.move_delta)}
-        self._deltas = list(sim.site.move_delta)
+        self._deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
+        self._pickups: list | None = None  # the pick-up poses ``_distances`` belong to
+        self._distances = np.zeros((0, 0), dtype=np.int64)
         self.reset()
 
     def reset(self) -> None:
@@ -76,7 +79,7 @@ class Carrier:
         self._shapes = ShapeCache(self.sim)
         self._force_replan = False
         self._round: int | None = None
-        self._res: ReservationTable | None = None
+        self._res: ReservationArrays | None = None
         self._may_start = True
         self._claims: dict[int, int] = {}  # crane -> component claimed in step T + 1
         self._cached: tuple[int, list[int]] | None = None
@@ -114,6 +117,26 @@ class Carrier:
             return steps + 1
         return max(plan.arrival - T, 1) + steps
 
+    def pair_distances(self) -> np.ndarray:
+        """(components, targets) int64: the Manhattan distance from each component's pick-up
+        pose to its pose on each compatible target, -1 where no pose of its shape covers the
+        target (or the target is not compatible); computed once per episode's pick-up poses."""
+        pickup = self.sim.state.pickup
+        if pickup is not self._pickups:
+            site = self.sim.site
+            dist = np.full((site.n_components, len(site.target_cells)), -1, dtype=np.int64)
+            for comp, targets in enumerate(site.compatible):
+                pick = pickup[comp]
+                if not pick:
+                    continue
+                rel = tuple(j - pick[0] for j in pick)
+                for t in targets:
+                    goal = goal_position(rel, site.target_cells[t])
+                    if goal is not None:
+                        dist[comp, t] = manhattan(site.cell(pick[0]), site.cell(goal))
+            self._pickups, self._distances = pickup, dist
+        return self._distances
+
     def may_start(self, T: int) -> bool:
         """New tasks may start in this round (no component is stranded without a plan)."""
         self.begin(T)
@@ -142,8 +165,7 @@ class Carrier:
         sim = self.sim
         diverged = self._sync(T) or self._force_replan
         self._force_replan = False
-        status = sim.state.status
-        transit = [c for c in range(sim.site.n_components) if status[c] == _IN_TRANSIT]
+        transit = np.flatnonzero(sim.state.status == _IN_TRANSIT).tolist()
         unplanned = [c for c in transit if c not in self.plans]
         if diverged or unplanned:
             res = self._table(T)
@@ -154,14 +176,14 @@ class Carrier:
                 self._plan_parked(unplanned, T, res)
         self._may_start = all(c in self.plans for c in transit)
 
-    def _table(self, T: int) -> ReservationTable:
+    def _table(self, T: int) -> ReservationArrays:
         if self._res is None:
             self._res = self._fresh_table(T)
         return self._res
 
-    def _fresh_table(self, T: int) -> ReservationTable:
+    def _fresh_table(self, T: int) -> ReservationArrays:
         """The reservations of every plan from ``T`` on (a hook: events add closed cells)."""
-        return ReservationTable.of_plans(self.sim, self.plans, T)
+        return ReservationArrays.of_plans(self.sim, self.plans, T)
 
     def try_start(self, crane: int, comp: int, target: int) -> bool:
         """Plan ``comp`` from its pick-up pose to ``target`` for ``crane``, claimed in step
@@ -285,7 +307,7 @@ class Carrier:
 
     def _search(
         self, comp: int, rel: tuple[int, ...], start: int, t_start: int, goal: int,
-        stops: set[int], res: ReservationTable, crane: int, claim: bool = True,
+        stops: set[int], res: ReservationArrays, crane: int, claim: bool = True,
     ) -> list[int] | None:  # fmt: skip
         """Space-time A* (counted in ``stats``): positions from ``t_start`` to the arrival."""
         self.stats["searches"] += 1
@@ -293,7 +315,7 @@ class Carrier:
         zone = crane if sim.site.reach is not None else -1
         ok = self._shapes.base_ok(sim, rel, zone)
         h = self._shapes.heuristic(sim, rel, goal, zone)
-        path, expansions = space_time_search(
+        path, expansions = compiled_search(
             res, comp, rel, start, t_start, goal, stops, ok, h,
             self._deltas, self.slack, self.max_expansions, lifted_onto_goal_arrives=claim,
         )  # fmt: skip
@@ -302,7 +324,7 @@ class Carrier:
             self.stats["failed"] += 1
         return path
 
-    def _plan_transit(self, comp: int, T: int, res: ReservationTable) -> bool:
+    def _plan_transit(self, comp: int, T: int, res: ReservationArrays) -> bool:
         """Plan a component in transit from where it is; reserve the plan on success."""
         sim = self.sim
         rel = shape_of(sim, comp)
@@ -328,7 +350,7 @@ class Carrier:
 
     def _replace_transit_plan(
         self, comp: int, crane: int, target: int, T: int, path, rel: tuple[int, ...],
-        res: ReservationTable,
+        res: ReservationArrays,
     ) -> None:  # fmt: skip
         """Give a component in transit a new plan along ``path``: its old reservations go."""
         res.release(comp)
@@ -336,18 +358,17 @@ class Carrier:
         self._new_plan(plan)
         res.reserve_plan(plan, rel, T)
 
-    def _plan_parked(self, comps: list[int], T: int, res: ReservationTable) -> list[int]:
+    def _plan_parked(self, comps: list[int], T: int, res: ReservationArrays) -> list[int]:
         """Plan components in transit that have no plan, in order; returns those still parked."""
         return [comp for comp in comps if not self._plan_transit(comp, T, res)]
 
-    def _replan_all(self, T: int, res: ReservationTable) -> None:
+    def _replan_all(self, T: int, res: ReservationArrays) -> None:
         """Drop every plan of a component in transit and plan them all again, oldest first."""
         sim = self.sim
         transit = [c for c in range(sim.site.n_components) if sim.state.status[c] == _IN_TRANSIT]
         for c in transit:
             self.plans.pop(c, None)
-        res.clear()
-        res.update(self._fresh_table(T))
+        res.replace_with(self._fresh_table(T))
         order = sorted(transit, key=lambda c: self._seq.get(c, 0))
         for _ in range(3):
             left = self._plan_parked(order, T, res)
@@ -355,7 +376,7 @@ class Carrier:
                 break
             order = left
 
-    def _repair(self, T: int, res: ReservationTable, new: set[int]) -> None:
+    def _repair(self, T: int, res: ReservationArrays, new: set[int]) -> None:
         """Replan the older plans whose path now crosses a target pose that may become ready
         (new goals can make a target ready during the path); keep the old plan if none."""
         sim = self.sim
@@ -373,6 +394,5 @@ class Carrier:
             res.hold(sim.state.cells[comp], T, INF, comp)
             del self.plans[comp]
             if not self._plan_transit(comp, T, res):
-                res.clear()
-                res.update(saved)
+                res.replace_with(saved)
                 self.plans[comp] = plan

@@ -42,7 +42,8 @@ from __future__ import annotations
 from multicrane.core.codes import WAIT, Status
 from multicrane.sim.event_knowledge import EventView, event_view, frozen_components
 from multicrane.tasks.carrier import Carrier
-from multicrane.tasks.reservations import INF, ReservationTable, goal_position, shape_of
+from multicrane.tasks.reservation_arrays import ReservationArrays
+from multicrane.tasks.reservations import INF, goal_position, shape_of
 
 CLOSED = -2  # the owner of a closed cell's reservations (components are 0..C-1)
 _IN_TRANSIT = int(Status.IN_TRANSIT)
@@ -125,17 +126,17 @@ class EventCarrier(Carrier):
                     return True
         return False
 
-    def _fresh_table(self, T: int) -> ReservationTable:
+    def _fresh_table(self, T: int) -> ReservationArrays:
         res = super()._fresh_table(T)
         if self._view is not None and self._view.closed:
             res.hold(self._view.closed, T, INF, CLOSED)
         return res
 
-    def _plan_parked(self, comps: list[int], T: int, res: ReservationTable) -> list[int]:
+    def _plan_parked(self, comps: list[int], T: int, res: ReservationArrays) -> list[int]:
         frozen = self._frozen
         return [c for c in comps if c in frozen or not self._plan_transit(c, T, res)]
 
-    def _plan_transit(self, comp: int, T: int, res: ReservationTable) -> bool:
+    def _plan_transit(self, comp: int, T: int, res: ReservationArrays) -> bool:
         if self._view is None:
             return super()._plan_transit(comp, T, res)
         self._planning = comp
@@ -147,7 +148,7 @@ class EventCarrier(Carrier):
             self._kept.pop(comp, None)
         return planned
 
-    def _plan_transit_now(self, comp: int, T: int, res: ReservationTable) -> bool:
+    def _plan_transit_now(self, comp: int, T: int, res: ReservationArrays) -> bool:
         sim = self.sim
         rel = shape_of(sim, comp)
         start = sim.state.cells[comp][0]
@@ -165,7 +166,7 @@ class EventCarrier(Carrier):
         return super()._plan_transit(comp, T, res)
 
     def _out_and_back(
-        self, comp: int, rel: tuple[int, ...], start: int, T: int, res: ReservationTable,
+        self, comp: int, rel: tuple[int, ...], start: int, T: int, res: ReservationArrays,
         crane: int, target: int,
     ) -> list[int] | None:  # fmt: skip
         """``[start, q, start]``: one move out to a free neighbour pose and back, reserved
@@ -177,7 +178,7 @@ class EventCarrier(Carrier):
         here = [start + r for r in rel]
         if res.conflict(here, T + 1, INF, comp):
             return None
-        for d in self._deltas:
+        for d in self._deltas.tolist():
             q = start + d
             if ok[q] and q not in stops and not res.conflict([q + r for r in rel], T, T + 2, comp):
                 return [start, q, start]

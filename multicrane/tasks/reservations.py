@@ -19,7 +19,7 @@ cranes have acted yet in the step or not, so it is never blocked.
 path holds its positions step by step and, from its arrival on, its goal pose for ever
 (``INF``): an arrived component stays where it is. What never moves during a search (walls,
 obstacles, yard components, arrived and assembled ones) is not in the table but in the *base*
-(``ShapeCache.base_ok``: a fit mask per component shape, by numpy).
+(``multicrane.tasks.shape_cache.ShapeCache.base_ok``: a fit mask per component shape).
 
 **Search** (``space_time_search``): A* over (position, time) states, wait or one of the six
 moves per step, cost one per step, heuristic the breadth-first distance to the goal around
@@ -28,6 +28,11 @@ components in transit only add detours). A time cap (shortest length + ``slack``
 expansion cap bound each search. Positions in ``stops`` (poses of other targets the component
 would arrive at) are never entered; the goal is entered only once no other reservation touches
 its cells from then on.
+
+**Specification and fast path.** ``ReservationTable`` and ``space_time_search`` here are the
+readable specification; the carrier runs the same search compiled, on the same reservations
+kept as flat rows (``multicrane.tasks.reservation_arrays``, ``multicrane.tasks.search_kernels``),
+and the tests check that both give the same paths and expansion counts.
 """
 
 from __future__ import annotations
@@ -35,11 +40,8 @@ from __future__ import annotations
 import heapq
 from dataclasses import dataclass
 
-import numpy as np
-
 from multicrane.core.codes import Status
-from multicrane.sim.shortest_paths import breadth_first, fits_everywhere
-from multicrane.sim.simulator import FREE, NOBODY, WALL, Simulator
+from multicrane.sim.simulator import NOBODY, Simulator
 
 INF = 1 << 40  # "for ever" in the reservation table
 _INITIAL, _IN_TRANSIT, _ARRIVED = int(Status.INITIAL), int(Status.IN_TRANSIT), int(Status.ARRIVED)
@@ -100,20 +102,7 @@ class ReservationTable(dict[int, list[Interval]]):
     def of_plans(cls, sim: Simulator, plans: dict[int, Plan], T: int) -> ReservationTable:
         """From time ``T`` on: every component in transit holds its plan's path (or, with no
         plan, its cells for ever), and so does every planned claim of an initial one."""
-        res = cls()
-        status = sim.state.status
-        for comp in range(sim.site.n_components):
-            if status[comp] != _IN_TRANSIT:
-                continue
-            plan = plans.get(comp)
-            if plan is None:
-                res.hold(sim.state.cells[comp], T, INF, comp)
-            else:
-                res.reserve_plan(plan, shape_of(sim, comp), T)
-        for plan in plans.values():
-            if plan.claim and status[plan.comp] == _INITIAL:
-                res.reserve_plan(plan, shape_of(sim, plan.comp), T)
-        return res
+        return fill_from_plans(cls(), sim, plans, T)
 
     def release(self, comp: int) -> None:
         """Drop every reservation of ``comp``."""
@@ -139,77 +128,23 @@ class ReservationTable(dict[int, list[Interval]]):
         return ReservationTable({c: list(v) for c, v in self.items()})
 
 
-class ShapeCache:
-    """Per component shape: where it fits the base, and breadth-first distances to goals.
-
-    The base fit is recomputed when some status changes, the distances when some component
-    arrives or is assembled; both are cached per shape (and goal) until then.
-    """
-
-    def __init__(self, sim: Simulator):
-        self.walls = sim.site.static == WALL
-        self._base_key: bytes | None = None
-        self._base_free: np.ndarray | None = None
-        self._fit: dict[tuple[int, ...], bytes] = {}
-        self._h_cache: dict[tuple, memoryview] = {}
-        self._h_key: bytes | None = None
-        self._zone_fit: dict[tuple, np.ndarray] = {}
-
-    def __getstate__(self) -> dict:
-        # The distances are memoryviews (not picklable) and only a cache: rebuilt on use.
-        return {**self.__dict__, "_h_cache": {}, "_h_key": None}
-
-    def base_ok(self, sim: Simulator, rel: tuple[int, ...], zone: int = -1) -> bytes:
-        """Positions where a component of this shape fits the base (no component in transit)
-        and, for ``zone >= 0``, lies wholly in that crane's reach (``Site.reach``)."""
-        status = sim.state.status
-        key = status.tobytes()
-        if key != self._base_key:
-            free = sim.state.occ == FREE
-            for comp in range(sim.site.n_components):
-                if status[comp] == _IN_TRANSIT:
-                    free[sim.state.cells[comp]] = True
-            self._base_key, self._base_free, self._fit = key, free, {}
-        ok = self._fit.get((rel, zone))
-        if ok is None:
-            fit = fits_everywhere(self._base_free, rel)
-            if zone >= 0:
-                fit &= self.zone_fit(sim, rel, zone)
-            ok = fit.tobytes()
-            self._fit[(rel, zone)] = ok
-        return ok
-
-    def zone_fit(self, sim: Simulator, rel: tuple[int, ...], zone: int) -> np.ndarray:
-        """Positions where a component of this shape lies wholly in crane ``zone``'s reach."""
-        key = (rel, zone)
-        fit = self._zone_fit.get(key)
-        if fit is None:
-            fit = fits_everywhere(sim.site.reach[zone], rel)
-            self._zone_fit[key] = fit
-        return fit
-
-    def heuristic(
-        self, sim: Simulator, rel: tuple[int, ...], goal: int, zone: int = -1
-    ) -> memoryview:
-        """Breadth-first moves to ``goal`` over walls and placed components, inside crane
-        ``zone``'s reach when ``zone >= 0`` (-1: none)."""
-        status = sim.state.status
-        key = (status >= _ARRIVED).tobytes()
-        if key != self._h_key:
-            self._h_key, self._h_cache = key, {}
-        h = self._h_cache.get((rel, goal, zone))
-        if h is None:
-            free = ~self.walls
-            for comp in range(sim.site.n_components):
-                if status[comp] >= _ARRIVED:
-                    free[sim.state.cells[comp]] = False
-            fit = fits_everywhere(free, rel)
-            if zone >= 0:
-                fit &= self.zone_fit(sim, rel, zone)
-            # A memoryview reads single entries as fast as a list, without the conversion.
-            h = memoryview(breadth_first(fit, [goal], sim.site.move_delta))
-            self._h_cache[(rel, goal, zone)] = h
-        return h
+def fill_from_plans(res, sim: Simulator, plans: dict[int, Plan], T: int):
+    """Fill the empty table ``res`` (``ReservationTable`` or ``ReservationArrays``) from time
+    ``T`` on: every component in transit holds its plan's path (or, with no plan, its cells
+    for ever), and so does every planned claim of an initial one; returns it."""
+    status = sim.state.status
+    for comp in range(sim.site.n_components):
+        if status[comp] != _IN_TRANSIT:
+            continue
+        plan = plans.get(comp)
+        if plan is None:
+            res.hold(sim.state.cells[comp], T, INF, comp)
+        else:
+            res.reserve_plan(plan, shape_of(sim, comp), T)
+    for plan in plans.values():
+        if plan.claim and status[plan.comp] == _INITIAL:
+            res.reserve_plan(plan, shape_of(sim, plan.comp), T)
+    return res
 
 
 def shape_of(sim: Simulator, comp: int) -> tuple[int, ...]:

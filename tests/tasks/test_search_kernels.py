@@ -1,0 +1,185 @@
+"""The compiled search against its specification: same distances, same paths, same expansions.
+
+``multicrane.tasks.search_kernels`` (run by the carrier through ``ReservationArrays`` and
+``compiled_search``) must answer exactly as ``multicrane.tasks.reservations`` (the dict table
+and the Python A*) and ``multicrane.sim.grid_search.breadth_first``: hypothesis draws small
+grids with random reservation tables, and states of shipped scenarios reached by random
+legal tasks, and every search is run both ways.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import multicrane
+from multicrane.episodes.random_actions import random_legal_action
+from multicrane.sim.grid_search import breadth_first, fits_everywhere
+from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
+from multicrane.tasks.reservations import (
+    INF,
+    ReservationTable,
+    goal_free_from,
+    goal_position,
+    shape_of,
+    space_time_search,
+)
+from multicrane.tasks.search_kernels import breadth_first_kernel, goal_free_from_kernel
+from multicrane.tasks.shape_cache import ShapeCache
+
+SIDE = 7  # a SIDE^3 grid with a wall ring: flat index (x * SIDE + y) * SIDE + z
+DELTAS = [SIDE * SIDE, -SIDE * SIDE, SIDE, -SIDE, 1, -1]
+SHAPES = [(0,), (0, 1), (0, SIDE), (0, SIDE * SIDE, 2 * SIDE * SIDE)]
+
+
+def _inside(p: int) -> bool:
+    x, rest = divmod(p, SIDE * SIDE)
+    y, z = divmod(rest, SIDE)
+    return all(0 < v < SIDE - 1 for v in (x, y, z))
+
+
+@st.composite
+def grids(draw):
+    """A free-cell mask (walls around, some obstacles) and a shape."""
+    free = np.array([_inside(p) for p in range(SIDE**3)])
+    blocked = draw(st.lists(st.integers(0, SIDE**3 - 1), max_size=40))
+    free[blocked] = False
+    return free, draw(st.sampled_from(SHAPES))
+
+
+@st.composite
+def tables(draw):
+    """The same random reservations in both tables (holds, paths, releases)."""
+    spec, arrays = ReservationTable(), ReservationArrays(capacity=4)
+    for _ in range(draw(st.integers(0, 12))):
+        comp = draw(st.integers(0, 4))
+        if draw(st.booleans()):
+            cells = draw(st.lists(st.integers(0, SIDE**3 - 1), max_size=3))
+            start = draw(st.integers(0, 20))
+            end = draw(st.sampled_from([INF, start + draw(st.integers(0, 15))]))
+            for table in (spec, arrays):
+                table.hold(cells, start, end, comp)
+        else:
+            rel = draw(st.sampled_from(SHAPES))
+            positions = draw(st.lists(st.integers(0, SIDE**3 - 60), min_size=1, max_size=12))
+            t0, T = draw(st.integers(0, 10)), draw(st.integers(0, 15))
+            for table in (spec, arrays):
+                table.reserve_path(comp, rel, t0, positions, T)
+        if draw(st.integers(0, 5)) == 0:
+            gone = draw(st.integers(0, 4))
+            for table in (spec, arrays):
+                table.release(gone)
+    return spec, arrays
+
+
+def _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, deltas):
+    """Both searches' answers (the specification on bytes and a memoryview, as it was
+    written for), asserted equal."""
+    a = space_time_search(
+        spec, comp, rel, start, t_start, goal, stops, bytes(ok), memoryview(h), list(deltas),
+        slack, 2000, lifted_onto_goal_arrives=lifted,
+    )  # fmt: skip
+    b = compiled_search(
+        arrays, comp, rel, start, t_start, goal, stops, ok, h, np.array(deltas), slack, 2000,
+        lifted_onto_goal_arrives=lifted,
+    )  # fmt: skip
+    assert a == b
+    return a
+
+
+@settings(max_examples=150, deadline=None)
+@given(grids(), st.data())
+def test_breadth_first_kernel_is_the_grid_search(grid, data):
+    free, rel = grid
+    ok = fits_everywhere(free, rel)
+    goal = data.draw(st.integers(0, SIDE**3 - 1))
+    expected = breadth_first(ok, [goal], DELTAS)
+    assert np.array_equal(breadth_first_kernel(ok, goal, np.array(DELTAS)), expected)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(grids(), tables(), st.data())
+def test_compiled_search_is_the_specification(grid, both, data):
+    free, rel = grid
+    spec, arrays = both
+    ok = fits_everywhere(free, rel)
+    places = np.flatnonzero(ok)
+    if places.size < 2:
+        return
+    pick = st.sampled_from(places.tolist())
+    start, goal = data.draw(pick), data.draw(pick)
+    stops = set(data.draw(st.lists(pick, max_size=3))) - {start, goal}
+    comp, t_start = data.draw(st.integers(0, 4)), data.draw(st.integers(0, 12))
+    h = breadth_first(ok, [goal], DELTAS)
+    slack, lifted = data.draw(st.integers(0, 12)), data.draw(st.booleans())
+    _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, DELTAS)
+    cells = [start + r for r in rel]
+    lo = data.draw(st.integers(0, 25))
+    hi = lo + data.draw(st.integers(0, 5))
+    assert spec.conflict(cells, lo, hi, comp) == arrays.conflict(cells, lo, hi, comp)
+    free_from = goal_free_from(spec, comp, rel, goal, t_start)
+    kernel = goal_free_from_kernel(arrays.rows, arrays.n, comp, np.array(rel), goal, t_start, INF)
+    assert (free_from if free_from is not None else -1) == kernel
+
+
+def test_copies_and_replacement_are_independent():
+    table = ReservationArrays(capacity=1)
+    table.hold([5, 6], 0, INF, 1)
+    assert table[5] == [(0, INF, 1)]
+    saved = table.copy()
+    table.release(1)
+    assert not table.conflict([5], 0, 3, 0) and saved.conflict([5], 0, 3, 0)
+    table.replace_with(saved)
+    saved.release(1)
+    assert table.conflict([6], 2, 2, 0) and not saved.conflict([6], 2, 2, 0)
+
+
+SITES = [("e2s2", 2), ("e3s2", 3), ("hall-4c", 4), ("towers-3c", 3), ("precast-house", 2)]
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from(SITES), st.integers(0, 10_000), st.integers(0, 25))
+def test_searches_on_shipped_sites_are_the_specification(site, seed, rounds):
+    """From a state reached by random legal tasks, every ready (component, target) pair and
+    crane is searched both ways against both tables of the carrier's plans."""
+    scenario, n = site
+    env = multicrane.parallel_env(scenario, n_cranes=n, decisions="task")
+    observations, _ = env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    for _ in range(rounds):
+        if not env.agents:
+            return
+        actions = {}
+        for a in env.agents:
+            mask = observations[a]["action_mask"]
+            actions[a] = random_legal_action(mask, rng) if mask[1:].any() else 0
+        observations, *_ = env.step(actions)
+    book = env.unwrapped.mode.task_book()
+    sim, carrier = env.unwrapped.sim, book.carrier
+    T = sim.state.step_count
+    spec = ReservationTable.of_plans(sim, carrier.plans, T)
+    arrays = ReservationArrays.of_plans(sim, carrier.plans, T)
+    shapes, deltas = ShapeCache(sim), sim.site.move_delta
+    zones = [-1] if sim.site.reach is None else list(range(n))
+    for comp in sim.claimable_components():  # claims: from the pick-up pose, lifted
+        pick = sim.state.pickup[comp]
+        rel = tuple(j - pick[0] for j in pick)
+        for target in sim.ready_targets(comp)[:3]:
+            goal = goal_position(rel, sim.site.target_cells[target])
+            if goal is None:
+                continue
+            zone = zones[(comp + target) % len(zones)]
+            ok, h = shapes.base_ok(sim, rel, zone), shapes.heuristic(sim, rel, goal, zone)
+            placed = shapes._placed_fit(sim, rel, zone)
+            assert np.array_equal(h, breadth_first(placed, [goal], deltas))
+            stops = carrier._stops(comp, rel, target)
+            _both(spec, arrays, comp, rel, pick[0], T + 1, goal, stops, ok, h, 40, True, deltas)
+    for comp, plan in carrier.plans.items():  # components in transit: from where they are
+        if plan.claim:
+            continue
+        rel = shape_of(sim, comp)
+        goal, start = plan.positions[-1], sim.state.cells[comp][0]
+        ok, h = shapes.base_ok(sim, rel), shapes.heuristic(sim, rel, goal)
+        stops = carrier._stops(comp, rel, plan.target)
+        _both(spec, arrays, comp, rel, start, T, goal, stops, ok, h, 40, False, deltas)
