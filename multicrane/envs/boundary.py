@@ -24,6 +24,8 @@ class ActionTypeError(TypeError, ValueError):
 def as_integer(value: Any, what: str) -> int:
     """``value`` as an int when it is a Python or numpy integer (or a 0-d integer array);
     else :class:`ActionTypeError` naming ``what`` and the value. Bools are refused."""
+    if type(value) is int:  # the common case first (a bool's type is bool)
+        return value
     if isinstance(value, bool | np.bool_):
         raise ActionTypeError(f"{what} must be an integer, got the bool {value!r}")
     try:
@@ -36,7 +38,7 @@ def as_integer(value: Any, what: str) -> int:
 
 def action_index(value: Any, agent: str, n_actions: int) -> int:
     """A crane's action as an int in ``0..n_actions - 1``; else an error naming the agent."""
-    a = as_integer(value, f"step(): the action of {agent}")
+    a = value if type(value) is int else as_integer(value, f"step(): the action of {agent}")
     if not 0 <= a < n_actions:
         raise ValueError(f"step(): {agent} sent action {a}, outside 0..{n_actions - 1}")
     return a

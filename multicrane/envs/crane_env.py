@@ -199,6 +199,7 @@ class MultiCraneEnv(ParallelEnv):
         )
         self.state_space = spaces.Box(0.0, 1.0, (n * self.observer.layout.size,), np.float32)
         self._state = np.zeros(self.state_space.shape, dtype=np.float32)
+        self._state_due = False  # state() must first build _state from the observer
         self.last_events: list[tuple[Event, ...]] = [() for _ in range(n)]
         self.last_site_events: tuple = ()  # the schedule's events of the last step or reset
         self.cycles = 0
@@ -299,7 +300,11 @@ class MultiCraneEnv(ParallelEnv):
     def _observe(self) -> dict[str, Any]:
         obs, masks = self.mode.observe()
         self._masks = masks
-        np.concatenate(obs, out=self._state)
+        # The global state is built when asked for: at the motion level from the observer,
+        # which rebuilds the rows it last returned (the caller may have changed them).
+        self._state_due = not self.mode.task_level
+        if not self._state_due:
+            np.concatenate(obs, out=self._state)
         self._shown = handed_out(self._masks)
         if self.obs_format == "flat":
             return dict(zip(self.possible_agents, obs, strict=True))
@@ -331,6 +336,9 @@ class MultiCraneEnv(ParallelEnv):
         in crane order; it holds the site planes, the component table and every crane's own
         features, for a centralised critic."""
         require_reset(bool(self._masks), "state")
+        if self._state_due:
+            np.concatenate(self.observer.last_rows(), out=self._state)
+            self._state_due = False
         return self._state.copy()
 
     def render(self) -> str | np.ndarray | None:

@@ -31,50 +31,49 @@ Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening)
    above (x, y), divided by the site height). A component not yet delivered is not drawn in
    the planes and its table row is all zero: only its ``delivered`` 0 is known.
 
-Channels 0-6 are shared by all cranes and kept up to date incrementally: a ``uint8`` bit grid
-holds one bit per channel per cell, and only the (x, y) columns whose bits changed are
-recomputed each step. One policy can act for every crane: all per-crane facts are in
+Channels 0-6 are shared by all cranes and kept up to date incrementally: each cell carries
+one bit per channel (``multicrane.envs.plane_grid``), and only the plane entries whose bits
+changed are rewritten each step. One policy can act for every crane: all per-crane facts are in
 channels 7-8, the "held by this crane" column and the crane vector.
 """
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 
 import numpy as np
 
 from multicrane.core.codes import Status
 from multicrane.core.kinds import kind_spec
+from multicrane.envs.plane_grid import (
+    ANY_TARGET,
+    AT_TARGET,
+    FREE_TARGET,
+    HEIGHT,
+    IN_TRANSIT,
+    INITIAL,
+    MARK,
+    N_SHARED,
+    OBSTACLE,
+    OVER_LIMIT,
+    READY,
+    PlaneGrid,
+    PlaneSpec,
+)
 from multicrane.sim.simulator import NOBODY, WALL, Simulator
 
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
 
-N_SHARED = 7
 N_OWN = 2
 COMPONENT_FEATURES = 14
 CRANE_FEATURES = 9
-
-# Bits of the cell grid; the first seven are also the shared channels, in this order.
-OBSTACLE, INITIAL, READY, IN_TRANSIT, AT_TARGET, FREE_TARGET, OVER_LIMIT = range(N_SHARED)
-ANY_TARGET = 7  # a target cell, free or filled (never changes)
 MINE, MY_TARGETS = N_SHARED, N_SHARED + 1
 
-HEIGHT, MARK = 0, 1  # what a plane holds: the top cell's height, or 1 where any cell qualifies
-
-
-@dataclass(frozen=True)
-class PlaneSpec:
-    """Which plan-view planes an Observer keeps: per plane, the grid bits that qualify a
-    cell, and whether it holds the top height (``HEIGHT``) or a 0/1 mark (``MARK``)."""
-
-    masks: tuple[int, ...]
-    values: tuple[int, ...]
-    normalise: bool  # heights divided by the site height
-
-    @property
-    def n(self) -> int:
-        return len(self.masks)
-
+# A component table row and a crane vector, packed straight into an observation's buffer.
+_ROW = struct.Struct(f"{COMPONENT_FEATURES}f")
+_CRANE = struct.Struct(f"{CRANE_FEATURES}f")
+_NOT_HOLDING = (0.0,) * 5
 
 MULTI_AGENT_PLANES = PlaneSpec(tuple(1 << b for b in range(N_SHARED)), (HEIGHT,) * N_SHARED, True)
 
@@ -157,24 +156,16 @@ class Observer:
         self.layout = lay = ObservationLayout(
             (X, Y), sim.site.n_components, planes.n, sim.n_cranes if self._events else 0
         )
+        self._grid = PlaneGrid(sim.site, planes)
         self._own_start = lay.own.start
         self._components_start = lay.components.start
-        self._crane = lay.crane
-        # Per padded linear cell index: the (x, y) plan index and the index of its bit byte
-        # (-1 outside the site, the ground and the sky included).
+        self._crane_start = lay.crane.start
+        # Per padded linear cell index: its (x, y) plan index (-1 outside the site, the
+        # ground and the sky included) and its height divided by the site height.
         xy = np.full(sim.site.shape, -1, dtype=np.int64)
         xy[1 : X + 1, 1 : Y + 1, 1 : H + 1] = np.arange(X * Y).reshape(X, Y, 1)
-        z = np.broadcast_to(np.arange(H + 2), sim.site.shape)
-        self._xy = xy.reshape(-1).tolist()
-        self._z = z.reshape(-1).tolist()
-        self._byte = np.where(xy >= 0, xy * (H + 1) + z, -1).reshape(-1).tolist()
-        # Column refresh: plane f of a column is max over z of value[z, f] * (bits & mask[f]).
-        self._masks = np.array(planes.masks, dtype=np.uint8).reshape(1, 1, planes.n)
-        z_value = np.arange(H + 1, dtype=np.float32) / (H if planes.normalise else 1)
-        self._values = np.stack(
-            [z_value if v == HEIGHT else (z_value > 0).astype(np.float32) for v in planes.values],
-            axis=1,
-        ).reshape(1, H + 1, planes.n)
+        z = np.broadcast_to(np.arange(H + 2), sim.site.shape).reshape(-1).tolist()
+        self._column = list(zip(xy.reshape(-1).tolist(), [v / H for v in z], strict=True))
         # Per padded linear cell index: (x, y, z) divided by the site size (the table's nodes).
         scale = (1.0 / max(X - 1, 1), 1.0 / max(Y - 1, 1), 1.0 / H)
         self._scaled = [
@@ -182,19 +173,20 @@ class Observer:
             for j in range(int(np.prod(sim.site.shape)))
         ]
         self._target_footprint = [self._footprint(cells) for cells in sim.site.target_cells]
-        # Per component: (ready targets, obs indices, values) of its MY_TARGETS plane.
-        self._my_targets: dict[int, tuple[list[int], np.ndarray, np.ndarray]] = {}
-        self._assembly_steps = sim.scenario.assembly_steps
-        self._move_limit = sim.site.move_limit
+        # Per component, as last computed: (its cells, its MINE plane entries) and (the
+        # simulator's ``targets_version``, its MY_TARGETS plane entries), (index, value) each.
+        self._mine: dict[int, tuple[list[int], list[tuple[int, float]]]] = {}
+        self._my_targets: dict[int, tuple[int, list[tuple[int, float]]]] = {}
+        self._assembly_steps, self._move_limit = sim.scenario.assembly_steps, sim.site.move_limit
         self._limit = max(self._move_limit, 1)
         self._beam = [float(kind_spec(k).beam_feature) for k in sim.site.kind]
         self._n_components = sim.site.n_components
 
     def __getstate__(self) -> dict:
-        # A memoryview and two views into the template: rebuilt on unpickling (a copied
-        # view would no longer share the template's memory).
+        # Two views into the template and a memoryview of it: rebuilt on unpickling (a
+        # copied view would no longer share the template's memory).
         state = self.__dict__.copy()
-        for name in ("_bits", "planes", "table"):
+        for name in ("planes", "table", "_shared"):
             state.pop(name, None)
         return state
 
@@ -205,95 +197,74 @@ class Observer:
 
     def _bind_views(self) -> None:
         X, Y = self.plan
-        self._bits = memoryview(self.bits.reshape(-1))
         self.planes = self.template[self.layout.shared].reshape(X * Y, self.spec.n)
-        self.table = self.template[self.layout.components].reshape(
-            self.sim.site.n_components, COMPONENT_FEATURES
-        )
+        self.table = self.template[self.layout.components].reshape(-1, COMPONENT_FEATURES)
+        self._shared = memoryview(self.template)[self.layout.shared]
 
     def _footprint(self, cells: list[int]) -> list[tuple[int, float]]:
         """(plan index, top height / H) of each (x, y) column a set of cells covers."""
-        top: dict[int, int] = {}
+        column = self._column
+        top: dict[int, float] = {}
         for j in cells:
-            p = self._xy[j]
-            top[p] = max(top.get(p, 0), self._z[j])
-        return [(p, z / self.height) for p, z in top.items()]
+            p, z = column[j]
+            if z > top.get(p, 0.0):
+                top[p] = z
+        return list(top.items())
 
     # -- the shared part -------------------------------------------------------------------
 
     def reset(self, step_limit: int) -> None:
         sim = self.sim
-        X, Y = self.plan
-        H = self.height
         self.step_limit = step_limit
-        self.bits = np.zeros((X * Y, H + 1), dtype=np.uint8)
         # The shared planes and the component table are views into the template, which
         # every crane's observation starts as a copy of.
         self.template = np.zeros(self.layout.size, dtype=np.float32)
         self._bind_views()
-        self._dirty_columns: set[int] = set()
+        grid = self._grid
+        grid.reset()
         obstacles = np.flatnonzero(sim.site.static == WALL).tolist()
-        self._paint(obstacles, 0, 1 << OBSTACLE)
+        grid.paint(obstacles, 0, 1 << OBSTACLE)
         self._painted: list[tuple[list[int], int]] = [([], 0)] * sim.site.n_components
         self._targets_free = [True] * sim.site.n_components
         for t in range(sim.site.n_components):
-            self._paint([], 0, (1 << FREE_TARGET) | (1 << ANY_TARGET), sim.site.target_cells[t])
+            grid.paint([], 0, (1 << FREE_TARGET) | (1 << ANY_TARGET), sim.site.target_cells[t])
         self._ready: set[int] = set()
         self._closed_seen = None
-
-    def _paint(
-        self, cells: list[int], bits: int, new_bits: int, new_cells: list[int] | None = None
-    ):
-        """Clear ``bits`` on ``cells``, then set ``new_bits`` on ``new_cells`` (default: same)."""
-        byte, bm, xy, dirty = self._byte, self._bits, self._xy, self._dirty_columns
-        if bits:
-            keep = ~bits & 0xFF
-            for j in cells:
-                i = byte[j]
-                if i >= 0:
-                    bm[i] &= keep
-                    dirty.add(xy[j])
-        for j in cells if new_cells is None else new_cells:
-            i = byte[j]
-            if i >= 0:
-                bm[i] |= new_bits
-                dirty.add(xy[j])
 
     def _component_bits(self, c: int, status: int, ready: bool) -> int:
         if status == _INITIAL:
             return (1 << INITIAL) | ((1 << READY) if ready else 0)
         if status == _IN_TRANSIT:
-            over = (1 << OVER_LIMIT) if self.sim.state.moves[c] > self._move_limit else 0
+            over = (1 << OVER_LIMIT) if self.sim.views.moves[c] > self._move_limit else 0
             return (1 << IN_TRANSIT) | over
         return 1 << AT_TARGET
 
-    def _clear_component(self, c: int) -> None:
-        """Take a component's bits off the cells it was painted on."""
-        self._paint(*self._painted[c], 0, [])
-        self._painted[c] = ([], 0)
-
     def _paint_component(self, c: int, ready: bool) -> None:
         """Paint a cleared component where it is now, and its table row."""
-        st = self.sim.state
-        cells, status = st.cells[c], int(st.status[c])
+        sim = self.sim
+        views = sim.views
+        cells, status = sim.state.cells[c], views.status[c]
         bits = self._component_bits(c, status, ready)
-        if not st.delivered[c]:  # off site: nothing of it is known but that
+        if not views.delivered[c]:  # off site: nothing of it is known but that
             cells, bits = [], 0
-        self._paint([], 0, bits, cells)
+        self._grid.paint([], 0, bits, cells)
         self._painted[c] = (cells, bits)
+        offset = (self._components_start + c * COMPONENT_FEATURES) * 4
         if not cells:
-            self.table[c] = 0.0
+            _ROW.pack_into(self.template, offset, *(0.0,) * COMPONENT_FEATURES)
             return
         # The component table row (the "held by this crane" column is per crane).
-        self.table[c] = (
+        _ROW.pack_into(
+            self.template,
+            offset,
             status == _INITIAL, status == _IN_TRANSIT, status == _ARRIVED, status == _ASSEMBLED,
             ready,
-            st.holder[c] != NOBODY,
+            views.holder[c] != NOBODY,
             0.0,
             self._beam[c],
             *self._scaled[cells[0]],
             *self._scaled[cells[-1]],
-        )
+        )  # fmt: skip
 
     def update(self, changed: set[int], ready: list[int], full: bool = False) -> None:
         """Bring the shared part up to date after a reset or a step.
@@ -309,22 +280,19 @@ class Observer:
         else:
             changed = changed | (ready_now ^ self._ready)
         self._ready = ready_now
-        filled, target_cells = sim.state.filled, sim.site.target_cells
+        filled, target_cells = sim.views.filled, sim.site.target_cells
+        grid, painted = self._grid, self._painted
         # Every old cell is cleared before any new one is painted: a component may move into
         # a cell another one left in the same step.
         for c in changed:
-            self._clear_component(c)
+            grid.paint(*painted[c], 0)
         for c in changed:
             self._paint_component(c, c in ready_now)
-            t = int(filled[c])  # a target is filled only when a component arrives at it
+            t = filled[c]  # a target is filled only when a component arrives at it
             if t >= 0 and self._targets_free[t]:
-                self._paint(target_cells[t], 1 << FREE_TARGET, 0)
+                grid.paint(target_cells[t], 1 << FREE_TARGET, 0)
                 self._targets_free[t] = False
-        if self._dirty_columns:
-            idx = np.fromiter(self._dirty_columns, dtype=np.intp, count=len(self._dirty_columns))
-            has = (self.bits[idx][:, :, None] & self._masks) != 0
-            self.planes[idx] = (has * self._values).max(axis=1)
-            self._dirty_columns.clear()
+        grid.refresh(self._shared)
         if self._events:
             self._update_events()
 
@@ -343,58 +311,89 @@ class Observer:
 
     # -- per crane ---------------------------------------------------------------------------
 
-    def _targets_plane(self, targets: list[int]) -> tuple[np.ndarray, np.ndarray]:
-        """Observation indices and values of the MY_TARGETS plane for a set of targets."""
+    def _targets_plane(self, targets: list[int]) -> list[tuple[int, float]]:
+        """(observation index, value) of the MY_TARGETS plane entries for a set of targets."""
         top: dict[int, float] = {}
         for t in targets:
             for p, z in self._target_footprint[t]:
                 top[p] = max(top.get(p, 0.0), z)
-        idx = np.array([self._own_start + p * N_OWN + 1 for p in top], dtype=np.intp)
-        return idx, np.array(list(top.values()), dtype=np.float32)
+        return [(self._own_start + p * N_OWN + 1, z) for p, z in top.items()]
 
     def observe(self, crane: int) -> np.ndarray:
         """A fresh array (the caller may keep it) with this crane's observation."""
         obs = self.template.copy()
-        self._write_own(crane, obs)
+        self._write_own(self._own_entries(crane), memoryview(obs), 0)
         return obs
 
     def observe_all(self) -> np.ndarray:
         """Every crane's observation as the rows of one fresh (cranes, size) array: the
         shared part is written into all rows by one broadcast copy of the template, then
         each row gets its crane's own entries; row i equals ``observe(i)``."""
-        n = self.sim.n_cranes
-        out = np.empty((n, self.layout.size), dtype=np.float32)
+        self._last_own = [self._own_entries(crane) for crane in range(self.sim.n_cranes)]
+        return self.last_rows()
+
+    def last_rows(self) -> np.ndarray:
+        """The rows ``observe_all`` last returned, built again as a fresh array (equal to them
+        as they were returned, until the next ``update``: the template and each crane's own
+        entries as then computed)."""
+        size = self.layout.size
+        out = np.empty((len(self._last_own), size), dtype=np.float32)
         out[:] = self.template
-        for crane in range(n):
-            self._write_own(crane, out[crane])
+        flat = memoryview(out.reshape(-1))
+        for crane, own in enumerate(self._last_own):
+            self._write_own(own, flat, crane * size)
         return out
 
-    def _write_own(self, crane: int, obs: np.ndarray) -> None:
-        """Write this crane's own entries into ``obs`` (a copy of the template)."""
+    def _own_entries(self, crane: int) -> tuple:
+        """This crane's own entries: (index, value) of its MINE and MY_TARGETS plane entries,
+        the index of its "held by this crane" table entry (-1: none) and its crane vector."""
         sim = self.sim
         st = sim.state
         comp = st.held[crane]
         if comp != NOBODY:
-            own = self._own_start
-            for p, z in self._footprint(st.cells[comp]):
-                obs[own + p * N_OWN] = z
-            ready = sim.ready_targets(comp)
-            cached = self._my_targets.get(comp)
-            if cached is None or cached[0] != ready:
-                cached = (ready, *self._targets_plane(ready))
-                self._my_targets[comp] = cached
-            obs[cached[1]] = cached[2]
-            obs[self._components_start + comp * COMPONENT_FEATURES + 6] = 1.0
-            status = int(st.status[comp])
-            moves = int(st.moves[comp])
-            held = [1.0, status == _IN_TRANSIT, status == _ARRIVED,
-                    min(moves / self._limit, 1.0), moves > self._move_limit]  # fmt: skip
+            cells = st.cells[comp]
+            mine = self._mine.get(comp)
+            if mine is None or mine[0] != cells:
+                own = self._own_start
+                mine = (cells, [(own + p * N_OWN, z) for p, z in self._footprint(cells)])
+                self._mine[comp] = mine
+            version = sim.targets_version
+            targets = self._my_targets.get(comp)
+            if targets is None or targets[0] != version:
+                targets = (version, self._targets_plane(sim.ready_targets(comp)))
+                self._my_targets[comp] = targets
+            flag = self._components_start + comp * COMPONENT_FEATURES + 6
+            status = sim.views.status[comp]
+            moves = sim.views.moves[comp]
+            held = (1.0, status == _IN_TRANSIT, status == _ARRIVED,
+                    min(moves / self._limit, 1.0), moves > self._move_limit)  # fmt: skip
+            entries = (mine[1], targets[1], flag)
         else:
-            held = [0.0] * 5
-        obs[self._crane] = (
+            held, entries = _NOT_HOLDING, ((), (), -1)
+        vector = (
             *held,
             st.assembling[crane] / self._assembly_steps,
             st.pass_over[crane],
             st.n_assembled / self._n_components,
             min(st.step_count / self.step_limit, 1.0),
         )
+        return (*entries, vector)
+
+    def _write_own(self, own: tuple, obs: memoryview, base: int) -> None:
+        """Write a crane's own entries (``_own_entries``) into ``obs[base:base + size]`` (flat
+        float32 holding a copy of the template there)."""
+        mine, targets, flag, vector = own
+        for i, v in mine:
+            obs[base + i] = v
+        for i, v in targets:
+            obs[base + i] = v
+        if flag >= 0:
+            obs[base + flag] = 1.0
+        _CRANE.pack_into(obs, (base + self._crane_start) * 4, *vector)
+
+
+# The plane constants and PlaneSpec live in plane_grid; they are part of this module's face.
+__all__ = ["ANY_TARGET", "AT_TARGET", "FREE_TARGET", "HEIGHT", "IN_TRANSIT", "INITIAL", "MARK",
+           "OBSTACLE", "OVER_LIMIT", "READY", "COMPONENT_FEATURES", "CRANE_FEATURES", "MINE",
+           "MULTI_AGENT_PLANES", "MY_TARGETS", "N_OWN", "N_SHARED", "ObservationLayout",
+           "Observer", "PlaneSpec"]  # fmt: skip

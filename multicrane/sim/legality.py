@@ -42,13 +42,18 @@ class Legality:
     state: SiteState
     auto: bool
     n_cranes: int
-    _occ: memoryview  # the state's occupancy and statuses (see Simulator._bind)
+    _occ: memoryview  # memoryviews of the state's arrays (see Simulator._bind)
     _status: memoryview
+    _moves: memoryview
+    _holder: memoryview
+    _filled_by: memoryview
+    _delivered: memoryview
     _zones: list | None  # Site.reach: per crane, the cells it reaches; None: no reach
     _zone_targets: list[list[list[int]]]  # per crane, per component: compatible targets in zone
     _closing: bool  # some cell is closed now (see Simulator: site events)
     _closed: np.ndarray  # (P,) bool: cells closed now
     _down: list[bool]  # per crane: down now
+    targets_version: int  # counts the changes of ``target_ready`` (never reset): a cache key
 
     # -- queries shared by the rules and the masks -------------------------------------------
 
@@ -79,7 +84,7 @@ class Legality:
         if self.site.waits[comp]:
             ready = self.target_ready
             return any(ready[t] for t in targets)
-        filled_by = self.state.filled_by
+        filled_by = self._filled_by
         return any(filled_by[t] == NOBODY for t in targets)
 
     def move_in_reach(self, crane: int, comp: int, move: int) -> bool:
@@ -139,7 +144,7 @@ class Legality:
     def _target_ready_now(self, t: int) -> bool:
         """A target can be filled: it is free, all its supports are assembled and none of
         its cells is closed."""
-        filled_by = self.state.filled_by
+        filled_by = self._filled_by
         if filled_by[t] != NOBODY:
             return False
         if self._closing and not self.open_cells(self.site.target_cells[t]):
@@ -167,6 +172,7 @@ class Legality:
                     carried[s].append(t)
             self._target_users, self._supported_by = users, carried
         self.target_ready = [self._target_ready_now(t) for t in range(n)]
+        self.targets_version += 1
         ready = self.target_ready
         compatible = self.site.compatible
         self._ready_count = [sum(1 for t in compatible[c] if ready[t]) for c in range(n)]
@@ -185,6 +191,7 @@ class Legality:
             if now == ready[t]:
                 continue
             ready[t] = now
+            self.targets_version += 1
             step = 1 if now else -1
             for c in users[t]:
                 count[c] += step
@@ -199,7 +206,7 @@ class Legality:
 
     def can_lift(self, comp: int) -> bool:
         return (
-            self._status[comp] == _INITIAL and self.state.delivered[comp] and self._lift_ok(comp)
+            self._status[comp] == _INITIAL and self._delivered[comp] and self._lift_ok(comp)
         )
 
     def claimable(self, comp: int) -> bool:
@@ -208,8 +215,8 @@ class Legality:
         paper)."""
         return (
             self._status[comp] == _INITIAL
-            and self.state.holder[comp] == NOBODY
-            and self.state.delivered[comp]
+            and self._holder[comp] == NOBODY
+            and self._delivered[comp]
             and self._lift_ok(comp)
             and (not self.site.waits[comp] or self._has_ready[comp])
         )
@@ -226,9 +233,9 @@ class Legality:
         if recheck:
             claimable = self._claimable
             # ``claimable(c)`` inlined: this runs for every component a step touched.
-            status, holder, pickup = self._status, self.state.holder, self.state.pickup
+            status, holder, pickup = self._status, self._holder, self.state.pickup
             waits, has_ready, fits = self.site.waits, self._has_ready, self.fits
-            delivered, closing, open_cells = self.state.delivered, self._closing, self.open_cells
+            delivered, closing, open_cells = self._delivered, self._closing, self.open_cells
             cells = self.state.cells
             for c in recheck:
                 if (
@@ -274,37 +281,38 @@ class Legality:
         return self.action_masks()[crane]
 
     def action_masks(self) -> np.ndarray:
-        """Legal actions of every crane, one int8 row each (a fresh array)."""
+        """Legal actions of every crane, one int8 row each (a fresh array; written as bytes,
+        which costs less than numpy item writes for rows this short)."""
         st = self.state
-        masks = np.zeros((self.n_cranes, self.site.n_actions), dtype=np.int8)
-        masks[:, WAIT] = 1
+        n, width = self.n_cranes, self.site.n_actions
+        masks = bytearray(n * width)
         claims = None
         assembling, pass_over, held = st.assembling, st.pass_over, st.held
         down = self._down
-        for crane in range(self.n_cranes):
+        for crane in range(n):
+            row = crane * width
+            masks[row + WAIT] = 1
             if assembling[crane] or pass_over[crane] or down[crane]:
                 continue
-            row = masks[crane]
             comp = held[crane]
             if comp == NOBODY:
                 if not self.auto:
                     if claims is None:
-                        claims = [CLAIM_BASE + c for c in self.claimable_components()]
-                    if self._zones is None:
-                        row[claims] = 1
-                    else:
-                        row[[a for a in claims if self.in_reach(crane, a - CLAIM_BASE)]] = 1
+                        claims = self.claimable_components()
+                    for c in claims:
+                        if self._zones is None or self.in_reach(crane, c):
+                            masks[row + CLAIM_BASE + c] = 1
                 continue
             status = self._status[comp]
             if status == _ARRIVED:
-                row[ASSEMBLE] = 1
+                masks[row + ASSEMBLE] = 1
             elif status == _IN_TRANSIT or (status == _INITIAL and self.can_lift(comp)):
-                row[:N_MOVES] = self.moves_ok(comp)
+                masks[row : row + N_MOVES] = bytes(self.moves_ok(comp))
                 if self._zones is not None:
                     for move in range(N_MOVES):
-                        if row[move] and not self.move_in_reach(crane, comp, move):
-                            row[move] = 0
-        return masks
+                        if masks[row + move] and not self.move_in_reach(crane, comp, move):
+                            masks[row + move] = 0
+        return np.frombuffer(masks, dtype=np.int8).reshape(n, width)
 
     def moves_ok(self, comp: int) -> list[bool]:
         """``move_ok`` for the six moves at once."""
@@ -326,7 +334,7 @@ class Legality:
 
     def over_limit(self) -> list[int]:
         """Cranes holding a component that has made more moves than the move limit."""
-        moves, limit = self.state.moves, self.site.move_limit
+        moves, limit = self._moves, self.site.move_limit
         return [
             crane
             for crane, comp in enumerate(self.state.held)

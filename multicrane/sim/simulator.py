@@ -10,8 +10,10 @@ same functions judge the actions). Every status change goes through the state ma
 The static site is ``sim.site`` (``multicrane.sim.site``: padded grid, targets, supports) and the
 episode's mutable state is ``sim.state`` (``multicrane.sim.state.SiteState``); the fields of both
 are also readable as attributes of the simulator (``sim.status`` is ``sim.state.status``).
-Readers (observation, reward, planners) read them and never write. ``take_changed`` hands
-over the components whose cells or status changed since it was last called.
+Readers (observation, reward, planners) read them and never write; ``sim.views``
+(``StateViews``) holds memoryviews of the state's per-component arrays for hot paths.
+``take_changed`` hands over the components whose cells or status changed since it was last
+called.
 
 **Site events** (``events=EventSpec``, see ``multicrane.sim.events`` and docs/uncertainty.md):
 ``reset`` draws the episode's ``EventSchedule`` from its generator (after the start) unless one
@@ -42,19 +44,22 @@ from multicrane.core.codes import (
     Status,
 )
 from multicrane.core.schema import Scenario
+from multicrane.sim.auto_pointer import AutoPointer
 from multicrane.sim.events import EventSchedule, EventSpec, draw_schedule
 from multicrane.sim.legality import Legality
 from multicrane.sim.reach import check_crane_count
 from multicrane.sim.site import FREE, NOBODY, WALL, Site
 from multicrane.sim.site_events import SiteEvents
 from multicrane.sim.start import Start, draw_start
-from multicrane.sim.state import SiteState
+from multicrane.sim.state import SiteState, StateViews
 from multicrane.sim.transitions import event_of
 
 __all__ = ["FREE", "NOBODY", "WALL", "Simulator", "StepOutcome"]
 
 # Plain ints for the hot path: reading an IntEnum member costs a class __getattr__ in 3.11.
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
+_VIEWS = ("views", "_occ", "_status", "_moves", "_holder", "_filled", "_filled_by", "_delivered")
+_VIEWS += ("_target_at",)
 
 
 @dataclass
@@ -67,7 +72,7 @@ class StepOutcome:
     site_events: list[SiteEvent] = field(default_factory=list)  # the schedule's, at the new time
 
 
-class Simulator(SiteEvents, Legality):
+class Simulator(SiteEvents, Legality, AutoPointer):
     """One construction site with ``n_cranes`` cranes.
 
     ``auto=True`` is the paper's process: each idle crane is given the next component of the
@@ -115,12 +120,13 @@ class Simulator(SiteEvents, Legality):
         self._closed = self.closed = np.zeros(self.site.size, dtype=bool)
         self._down = [False] * self.n_cranes
         self.site_log: list[SiteEvent] = []
+        self.targets_version = 0
 
     # -- pickling: memoryviews are rebuilt, not pickled -------------------------------------
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for view in ("_occ", "_status", "_target_at"):
+        for view in _VIEWS:
             state.pop(view, None)
         return state
 
@@ -130,9 +136,12 @@ class Simulator(SiteEvents, Legality):
             self._bind()
 
     def _bind(self) -> None:
-        """Hot-path caches: memoryviews of the state's and the site's arrays."""
+        """Hot-path caches: memoryviews of the state's and the site's arrays (an item of a
+        memoryview is a plain int, read and written without making a numpy scalar)."""
+        self.views = views = StateViews.of(self.state)
         self._occ = memoryview(self.state.occ)
-        self._status = memoryview(self.state.status)
+        self._status, self._moves, self._holder = views.status, views.moves, views.holder
+        self._filled, self._filled_by, self._delivered = views[3:]
         self._target_at = memoryview(self.site.target_at)
 
     # -- reset -----------------------------------------------------------------------------
@@ -250,7 +259,7 @@ class Simulator(SiteEvents, Legality):
                 return
             st.assembling[crane] = self.scenario.assembly_steps
             out.events.append(
-                Event(t, crane, EventType.ASSEMBLY_STARTED, comp, int(st.filled[comp]))
+                Event(t, crane, EventType.ASSEMBLY_STARTED, comp, self._filled[comp])
             )
             self._continue_assembly(crane, out)
         else:
@@ -262,14 +271,14 @@ class Simulator(SiteEvents, Legality):
         if self.auto or st.held[crane] != NOBODY or not 0 <= comp < self.site.n_components:
             out.events.append(Event(t, crane, EventType.ILLEGAL, detail=f"claim {comp}"))
             return
-        if st.holder[comp] != NOBODY and self._status[comp] != _ASSEMBLED:
+        if self._holder[comp] != NOBODY and self._status[comp] != _ASSEMBLED:
             # Another crane took it earlier in this step (or holds it already).
             out.events.append(Event(t, crane, EventType.CLAIM_CONFLICT, comp))
             return
         if (
             self._status[comp] != _INITIAL
             or (self.site.waits[comp] and not self._has_ready[comp])
-            or not st.delivered[comp]
+            or not self._delivered[comp]
         ):
             out.events.append(Event(t, crane, EventType.ILLEGAL, comp, detail=f"claim {comp}"))
             return
@@ -291,7 +300,7 @@ class Simulator(SiteEvents, Legality):
             return False
         self._place(comp, st.pickup[comp])
         event = self._set_status(comp, _IN_TRANSIT)
-        st.holder[comp] = crane
+        self._holder[comp] = crane
         out.events.append(Event(st.step_count, crane, event, comp))
         self._check_arrival(crane, comp, out)
         return True
@@ -310,7 +319,7 @@ class Simulator(SiteEvents, Legality):
             return
         d = self.site.move_delta[move]
         self._place(comp, [j + d for j in st.cells[comp]])
-        st.moves[comp] += 1
+        self._moves[comp] += 1
         self._check_arrival(crane, comp, out)
 
     def _place(self, comp: int, cells: list[int]) -> None:
@@ -338,8 +347,8 @@ class Simulator(SiteEvents, Legality):
         if len(target) != len(cells) or not target.issuperset(cells) or not self.target_ready[t]:
             return
         event = self._set_status(comp, _ARRIVED)
-        st.filled[comp] = t
-        st.filled_by[t] = comp
+        self._filled[comp] = t
+        self._filled_by[t] = comp
         self._update_targets([t])  # now filled; the targets it carries wait for assembly
         out.events.append(Event(st.step_count, crane, event, comp, t))
         if self.auto:
@@ -354,47 +363,10 @@ class Simulator(SiteEvents, Legality):
     def _assemble(self, crane: int, comp: int, out: StepOutcome) -> None:
         st = self.state
         event = self._set_status(comp, _ASSEMBLED)
-        st.holder[comp] = NOBODY
+        self._holder[comp] = NOBODY
         st.held[crane] = NOBODY
         st.n_assembled += 1
         self._changed.add(comp)
-        self._update_targets(self._supported_by[int(st.filled[comp])])
-        out.events.append(Event(st.step_count, crane, event, comp, int(st.filled[comp])))
+        self._update_targets(self._supported_by[self._filled[comp]])
+        out.events.append(Event(st.step_count, crane, event, comp, self._filled[comp]))
         out.assembled_by.append(crane)
-
-    # -- automatic mode: the list pointer ----------------------------------------------------
-
-    def _assign(self, crane: int, events: list[Event]) -> None:
-        """Give an idle crane the next component of the list order (the paper's pointer).
-
-        From the pointer on (cyclically): assembled entries are passed by, entries held by
-        another crane are passed by, and beams with no supported free target are skipped;
-        a pre-built entry reached for the first time becomes a pass-over step. The pointer
-        then stands after the chosen entry. If a full cycle finds nothing, the crane idles.
-        """
-        st = self.state
-        order = self.scenario.order
-        n = len(order)
-        for _ in range(n):
-            pos = st.pointer
-            comp = order[pos]
-            st.pointer = (pos + 1) % n
-            if st.prebuilt[comp]:
-                if comp not in st.passed_over:
-                    st.passed_over.add(comp)
-                    st.pass_over[crane] = True
-                    return
-                continue
-            if self._status[comp] != _INITIAL or st.holder[comp] != NOBODY:
-                continue
-            if not st.delivered[comp]:
-                continue  # late: not on site yet
-            if self.site.waits[comp] and not self._has_ready[comp]:
-                continue
-            if self._zones is not None and not self.in_reach(crane, comp):
-                continue  # out of this crane's reach: skipped like a beam with no target
-            st.held[crane] = comp
-            st.holder[comp] = crane
-            self._changed.add(comp)
-            events.append(Event(st.step_count, crane, EventType.ASSIGNED, comp))
-            return

@@ -11,7 +11,7 @@ copies one back in place (``Simulator.restore``), so arrays bound elsewhere stay
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -27,6 +27,22 @@ _LISTS = ("cells", "held", "assembling", "pass_over")
 _SCALARS = ("pointer", "n_assembled", "step_count")
 # Set by reset and never changed during the episode: copies share them.
 _EPISODE = ("prebuilt", "pickup", "n_prebuilt")
+
+
+class StateViews(NamedTuple):
+    """Memoryviews of a ``SiteState``'s per-component arrays, for hot paths: an item is a
+    plain int (a bool for ``delivered``), read without making a numpy scalar."""
+
+    status: memoryview
+    moves: memoryview
+    holder: memoryview
+    filled: memoryview
+    filled_by: memoryview
+    delivered: memoryview
+
+    @classmethod
+    def of(cls, state: SiteState) -> StateViews:
+        return cls(*(memoryview(getattr(state, name)) for name in cls._fields))
 
 
 @dataclass(eq=False)
