@@ -33,6 +33,7 @@ LABELS = {
     "a2c": "A2C",
     "ppo": "PPO",
     "maskable_ppo": "MaskablePPO",
+    "lean_ppo": "lean PPO",
 }
 
 Results = dict[tuple[str, str], dict[int, dict | None]]  # (config, algo) -> seed -> result

@@ -27,6 +27,7 @@ COLORS = {
     "a2c": "tab:green",
     "ppo": "tab:red",
     "maskable_ppo": "tab:purple",
+    "lean_ppo": "tab:brown",
 }
 
 

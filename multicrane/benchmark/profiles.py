@@ -17,6 +17,9 @@ from typing import Any
 from multicrane.envs.paper_env import PAPER_CONFIGS
 
 ALGOS = ("dqn", "double_dqn", "a2c", "ppo", "maskable_ppo")
+# Ours, not an SB3 class (multicrane.training.lean_ppo): runnable with --algos, in no profile yet.
+LEAN_ALGOS = ("lean_ppo",)
+RUNNABLE_ALGOS = ALGOS + LEAN_ALGOS
 # The four algorithms the paper's text describes (vanilla DQN, double DQN, A2C, PPO).
 PAPER_ALGOS = ("dqn", "double_dqn", "a2c", "ppo")
 DEFAULT_ROOT = Path("runs") / "bench"
@@ -272,8 +275,8 @@ def make_sweep(
     chosen_configs = parse_configs(configs) if configs else profile.configs
     chosen_algos = tuple(algos) if algos else profile.algos
     for algo in chosen_algos:
-        if algo not in ALGOS:
-            raise SweepError(f"unknown algorithm {algo!r}: one of {', '.join(ALGOS)}")
+        if algo not in RUNNABLE_ALGOS:
+            raise SweepError(f"unknown algorithm {algo!r}: one of {', '.join(RUNNABLE_ALGOS)}")
     chosen_seeds = tuple(seeds) if seeds is not None and len(seeds) else profile.seeds
     for seed in chosen_seeds:
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:

@@ -52,6 +52,7 @@ PAPER_COLUMN: dict[str, tuple[str, ...]] = {
     "a2c": ("A2C",),
     "ppo": ("PPO",),
     "maskable_ppo": (),
+    "lean_ppo": ("PPO",),
 }
 
 # The seeds behind every Table I entry.

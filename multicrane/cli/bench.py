@@ -19,6 +19,7 @@ DESCRIPTION = """Environment throughput: joint steps per second under random leg
     multicrane bench --all          # every shipped scenario, 1 and 4 cranes
     multicrane bench --paper E1S1   # the single-agent paper mode (Gymnasium)
     multicrane bench --vector       # the vector paper and motion envs (numba) beside them
+    multicrane bench --train        # training steps/s: the lean PPO beside SB3's MaskablePPO
     multicrane bench --decisions task --scenario hall-4c --cranes 4   # task-level rounds
     multicrane bench --scenario set:test-small --steps 2000   # every site of a named set
     multicrane bench --scaling      # costs of generated sites of 3-121 components, 1-16 cranes
@@ -44,6 +45,12 @@ else E1S1 and E4S1; each figure is the median of three interleaved rounds. Then 
 for the vector motion env (``MotionVectorEnv``) on hall-4c with 4 cranes, joint steps per
 second under uniform random legal actions, beside the one-site ``parallel_env``.
 
+With ``--train`` it times training, rollouts and updates (``--paper``'s first configuration,
+else E1S1; one torch thread): SB3's MaskablePPO at the paper's settings for ``--steps`` steps
+and the lean PPO (``multicrane train --algo lean_ppo``) for ten times as many, in two
+interleaved rounds, and prints each one's steps per second of wall time and of the process's
+CPU time (the medians; on a shared machine the CPU figure is the steadier) and their ratios.
+
 With ``--scaling`` it measures how the costs grow with the site (``multicrane.reports.scaling``):
 load, reset, joint step per crane (200 random legal steps) and the prioritized planner's
 time per decision (first 100 decisions) on generated halls. The default grid (3, 21, 121
@@ -67,6 +74,8 @@ def register(sub) -> None:
                    help="task: time task-level decision rounds (planning included)")
     p.add_argument("--vector", action="store_true",
                    help="the vector paper env (multicrane.vector) beside the one-site env")
+    p.add_argument("--train", action="store_true",
+                   help="training steps/s: the lean PPO beside SB3's MaskablePPO")
     p.add_argument("--scaling", action="store_true",
                    help="costs of generated sites of growing size (multicrane.reports.scaling)")
     p.add_argument("--full", action="store_true", help="with --scaling: the full grid")
@@ -227,9 +236,32 @@ def run_vector_motion(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_train(args: argparse.Namespace) -> int:
+    """Training throughput, the lean PPO beside MaskablePPO (see DESCRIPTION)."""
+    from multicrane.training.lean_ppo_bench import training_steps_per_second
+
+    config = (args.paper or ["E1S1"])[0]
+    budgets = {"maskable_ppo": args.steps, "lean_ppo": 10 * args.steps}
+    rates: dict[str, list[tuple[float, float]]] = {name: [] for name in budgets}
+    for _ in range(2):  # interleaved rounds
+        for name, steps in budgets.items():
+            rates[name].append(training_steps_per_second(name, config, steps))
+    median = {name: np.median(r, axis=0) for name, r in rates.items()}  # (wall, CPU)
+    print(f"{'config':<8} {'algorithm':<13} {'steps':>9} {'steps/s':>10} {'steps/CPU-s':>12}")
+    for name, steps in budgets.items():
+        wall, cpu = median[name]
+        print(f"{config:<8} {name:<13} {steps:>9,} {wall:>10,.0f} {cpu:>12,.0f}")
+    wall, cpu = median["lean_ppo"] / median["maskable_ppo"]
+    print(f"lean_ppo / maskable_ppo: {wall:.1f}x per wall second, {cpu:.1f}x per CPU second "
+          "(rollouts and updates, one torch thread)")  # fmt: skip
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     import multicrane
 
+    if args.train:
+        return run_train(args)
     if args.scaling:
         return run_scaling(args)
     if args.vector:

@@ -14,9 +14,9 @@ from pathlib import Path
 from multicrane.benchmark.estimate import estimate_wall, format_duration
 from multicrane.benchmark.manifest import record_session, session_labels
 from multicrane.benchmark.profiles import (
-    ALGOS,
     DEFAULT_ROOT,
     PROFILES,
+    RUNNABLE_ALGOS,
     Sweep,
     SweepError,
     make_sweep,
@@ -138,7 +138,7 @@ def _selection(p: argparse.ArgumentParser) -> None:
         metavar="CONFIG",
         help="E1S1 .. E4S4, E1 .. E4 (four scenarios) or all (default: the profile's)",
     )
-    p.add_argument("--algos", nargs="+", choices=ALGOS, help="default: the profile's")
+    p.add_argument("--algos", nargs="+", choices=RUNNABLE_ALGOS, help="default: the profile's")
     p.add_argument(
         "--seeds", nargs="+", metavar="SEED", help="e.g. 0 1 2 or 0-14 (default: the profile's)"
     )

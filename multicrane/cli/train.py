@@ -16,6 +16,7 @@ for cranes (needs the 'train' extra).
     multicrane train --paper E2S2 --algo dqn --steps 200000 --seed 0
     multicrane train --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
     multicrane train --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
+    multicrane train --paper E1S1 --algo lean_ppo --steps 1000000 [--device cuda]
     multicrane train --backend rllib --scenario e3s2 --cranes 2 --steps 20000 [--address auto]
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
     multicrane train --scenario set:train --curriculum grow --steps 300000
@@ -39,6 +40,10 @@ options. See multicrane.cli.train_rllib.
 --events none|low|high trains (and evaluates) with site events (docs/uncertainty.md; both
 decision levels, either backend); it is stored in config.json, so a resume, multicrane
 evaluate and multicrane plan --policy RUN_DIR play the same level unless told otherwise.
+
+--algo lean_ppo (paper mode) is our own PPO on the vector env (multicrane.training.lean_ppo,
+docs/training.md): 256 copies by default, tens of thousands of steps per second; --device
+cuda trains it on a GPU (stored as its train_device setting).
 """
 
 
@@ -49,7 +54,7 @@ def register(sub) -> None:
     p.add_argument(
         "--algo",
         default=None,
-        help="paper: dqn, double_dqn, a2c, ppo, maskable_ppo (default ppo); "
+        help="paper: dqn, double_dqn, a2c, ppo, maskable_ppo, lean_ppo (default ppo); "
         "multi-agent: ppo, maskable_ppo (default maskable_ppo)",
     )
     p.add_argument("--steps", type=int, default=100_000, help="budget in SB3 timesteps")
@@ -71,6 +76,8 @@ def register(sub) -> None:
                    help="discount in the shaping term (default: the learner's gamma; "
                    "1: w (phi' - phi))")  # fmt: skip
     p.add_argument("--threads", type=int, default=1, help="torch threads (default 1)")
+    p.add_argument("--device", default=None,
+                   help="lean_ppo: where it trains, cpu (default) or cuda")  # fmt: skip
     p.add_argument("--policy", choices=("mlp", "set"), default=None,
                    help="multi-agent task mode: 'set' for the set-based shared policy "
                    "(default mlp; set with --curriculum)")  # fmt: skip
@@ -136,10 +143,15 @@ def build_config(args: argparse.Namespace):
             raise ValueError(f"--set-limits {args.set_limits!r}: expected C,N,P") from None
         limits = {"components": c, "cranes": n, "tasks": t}
     mask = None if args.mask_blocked_moves is None else args.mask_blocked_moves == "on"
+    algo = args.algo or ("ppo" if paper else "maskable_ppo")
+    if args.device is not None:
+        if algo != "lean_ppo":
+            raise ValueError(f"--device is an option of --algo lean_ppo, not {algo}")
+        overrides["train_device"] = args.device
     return TrainConfig(
         scenario=args.paper if paper else args.scenario,
         paper=paper,
-        algo=args.algo or ("ppo" if paper else "maskable_ppo"),
+        algo=algo,
         total_steps=args.steps,
         seed=args.seed,
         n_cranes=args.cranes,

@@ -6,7 +6,8 @@ gradient steps, one gradient step per env step, epsilon 1.0 -> 0.02 over the fir
 gamma 0.9 (Env1/2) or 0.8 (Env3/4). A2C: 16 envs x 5 steps, RMSprop lr 7e-4, gamma 0.9,
 entropy 0.01. PPO: 16 envs x 125 steps, minibatch 64, 4 epochs, lr 3e-4, gamma 0.9, GAE 0.95,
 clip 0.2, observations divided by 4. MaskablePPO (not in the paper) uses PPO's settings with
-the environment's blocked-move mask.
+the environment's blocked-move mask. The lean PPO (``lean_ppo``, ours, not an SB3 class:
+``multicrane.training.lean_ppo``) trains on the vector paper env with its own defaults.
 
 Multi-agent mode (parameter sharing, one row per crane): PPO and MaskablePPO with settings
 of our own (8 copies x 128 steps, 10 epochs, gamma 0.95), with the potential-based shaping
@@ -32,6 +33,7 @@ from stable_baselines3 import A2C, DQN, PPO
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from multicrane.training.grid_cnn import features_extractor
+from multicrane.training.lean_ppo import LeanPPO, default_hyperparameters
 
 
 class DoubleDQN(DQN):
@@ -135,6 +137,9 @@ PAPER_ALGORITHMS: dict[str, Algorithm] = {
             obs_scale=0.25,
             label="MaskablePPO",
         ),
+        # Ours (not the paper's): PPO on the vector env, docs/training.md "The lean PPO".
+        Algorithm("lean_ppo", LeanPPO, 256, masked=True, defaults=default_hyperparameters(),
+                  obs_scale=0.25, label="lean PPO"),  # fmt: skip
     )
 }
 

@@ -34,7 +34,7 @@ from multicrane.training.set_policy import BLOCKED
 def _is_masked(model) -> bool:
     from sb3_contrib import MaskablePPO
 
-    return isinstance(model, MaskablePPO)
+    return isinstance(model, MaskablePPO) or getattr(model, "masked_policy", False)
 
 
 class PaperModelPolicy:

@@ -55,6 +55,10 @@ def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
     if cfg.policy == "set":
         return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
     n = cfg.n_envs or algo.n_envs
+    if algo.name == "lean_ppo":  # the vector paper env (multicrane.training.lean_ppo_env)
+        from multicrane.training.lean_ppo_env import lean_vec_env
+
+        return lean_vec_env(cfg, algo, n)
     if cfg.paper:  # shaping: the learner's reward only; Monitor records the paper's
         w, kind = cfg.shaping_weight, cfg.potential
         shape = (lambda e: ShapedPaperEnv(e, w, gamma, kind)) if w else (lambda e: e)

@@ -1,0 +1,99 @@
+"""The lean PPO's environment copies: ``PaperVectorEnv`` with episode tallies and saved state.
+
+``LeanVecEnv`` holds ``n`` copies of a paper configuration (``multicrane.vector``, same-step
+autoreset), observed as bytes (the values are whole numbers up to 13, docs/vector.md), and
+adds what a training run needs around them: each copy's running return and length (the
+episodes that ended come back from ``step``), and ``get_state``/``set_state`` (every array of
+the copies, their generators included), so that a checkpoint resumes the same episodes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from multicrane.vector.paper_vector_env import PaperVectorEnv
+
+
+class LeanVecEnv:
+    """``n_envs`` copies of the paper configuration ``config``; ``step`` returns
+    ``(obs, masks, rewards, terminated, truncated, final_obs, episodes)`` where ``final_obs``
+    is the last observation of the episodes that ended (rows where ``terminated |
+    truncated``) and ``episodes`` a list of ``{"r": return, "l": length, "success": bool}``
+    (the env's own reward). The arrays are the env's buffers, overwritten by the next step."""
+
+    def __init__(self, config: str, n_envs: int, mask_blocked_moves: bool):
+        self.envs = PaperVectorEnv(n_envs, config=config, mask_blocked_moves=mask_blocked_moves,
+                                   obs_dtype=np.uint8)  # fmt: skip
+        self.num_envs = n_envs
+        self.observation_space = self.envs.single_observation_space
+        self.action_space = self.envs.single_action_space
+        self.returns = np.zeros(n_envs)
+        self.lengths = np.zeros(n_envs, dtype=np.int64)
+
+    def reset(self, seed: int) -> tuple[np.ndarray, np.ndarray]:
+        obs, _ = self.envs.reset(seed=seed)
+        self.returns[:] = 0
+        self.lengths[:] = 0
+        return obs, self.envs.buffers.masks
+
+    def current(self) -> tuple[np.ndarray, np.ndarray]:
+        """The present observations and masks (after ``reset``, ``step`` or ``set_state``)."""
+        return self.envs.buffers.obs, self.envs.buffers.masks
+
+    def step(self, actions: np.ndarray):
+        obs, rewards, terminated, truncated, infos = self.envs.step(actions)
+        self.returns += rewards
+        self.lengths += 1
+        done = np.flatnonzero(terminated | truncated)
+        episodes = [
+            {"r": float(self.returns[i]), "l": int(self.lengths[i]),
+             "success": bool(terminated[i])}  # fmt: skip
+            for i in done.tolist()
+        ]
+        self.returns[done] = 0
+        self.lengths[done] = 0
+        return obs, self.envs.buffers.masks, rewards, terminated, truncated, \
+            infos["final_obs"], episodes  # fmt: skip
+
+    def get_state(self) -> dict[str, Any]:
+        envs = self.envs
+        return {
+            "state": [a.copy() for a in envs.state],
+            "buffers": [a.copy() for a in envs.buffers],
+            "started": envs._started,
+            "done": envs._done.copy(),
+            "returns": self.returns.copy(),
+            "lengths": self.lengths.copy(),
+        }
+
+    def set_state(self, saved: dict[str, Any]) -> None:
+        envs = self.envs
+        for name, arrays in (("state", envs.state), ("buffers", envs.buffers)):
+            if len(saved[name]) != len(arrays):
+                raise ValueError(f"saved environment {name}: {len(saved[name])} arrays, "
+                                 f"expected {len(arrays)}")  # fmt: skip
+            for array, value in zip(arrays, saved[name], strict=True):
+                array[...] = value
+        envs._started = saved["started"]
+        envs._done[:] = saved["done"]
+        self.returns[:] = saved["returns"]
+        self.lengths[:] = saved["lengths"]
+
+    def close(self) -> None:
+        self.envs.close()
+
+
+def lean_vec_env(cfg, algo, n_envs: int) -> LeanVecEnv:
+    """The copies a ``TrainConfig`` of the ``lean_ppo`` algorithm trains on (paper mode, the
+    env's own reward: shaping is not available yet)."""
+    from multicrane.training.config import ConfigError
+
+    if not cfg.paper:
+        raise ConfigError("algo='lean_ppo': the paper mode only (--paper CONFIG) for now")
+    if cfg.shaping_weight:
+        raise ConfigError(f"shaping={cfg.shaping!r}: lean_ppo trains on the paper's reward "
+                          "only for now (shaping 0)")  # fmt: skip
+    mask = algo.masked if cfg.mask_blocked_moves is None else cfg.mask_blocked_moves
+    return LeanVecEnv(cfg.scenario, n_envs, mask)
