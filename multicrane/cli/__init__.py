@@ -33,6 +33,7 @@ COMMANDS = (
     "import_ifc",
     "export_4d",
     "bound",
+    "suite",
     "bench",
     "marl_bench",
     "seed_table",

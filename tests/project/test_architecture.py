@@ -28,7 +28,7 @@ MAX_ROOT_MODULES = 10
 # The rooms of ``multicrane``, lowest first; docs/architecture.md draws them in this order.
 ROOMS = (
     "core", "sim", "scenario", "render", "tasks", "envs", "vector", "bounds", "episodes", "replay",
-    "ifc", "training", "benchmark", "reports", "integrations", "cli",
+    "suite", "ifc", "training", "benchmark", "reports", "integrations", "cli",
 )
 # The root package: its ``__init__`` is the public face (it re-exports the environments, so it
 # stands with ``envs``); the other root modules are helpers below every room.
