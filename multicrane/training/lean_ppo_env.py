@@ -58,26 +58,11 @@ class LeanVecEnv:
             infos["final_obs"], episodes  # fmt: skip
 
     def get_state(self) -> dict[str, Any]:
-        envs = self.envs
-        return {
-            "state": [a.copy() for a in envs.state],
-            "buffers": [a.copy() for a in envs.buffers],
-            "started": envs._started,
-            "done": envs._done.copy(),
-            "returns": self.returns.copy(),
-            "lengths": self.lengths.copy(),
-        }
+        return {**self.envs.get_state(), "returns": self.returns.copy(),
+                "lengths": self.lengths.copy()}  # fmt: skip
 
     def set_state(self, saved: dict[str, Any]) -> None:
-        envs = self.envs
-        for name, arrays in (("state", envs.state), ("buffers", envs.buffers)):
-            if len(saved[name]) != len(arrays):
-                raise ValueError(f"saved environment {name}: {len(saved[name])} arrays, "
-                                 f"expected {len(arrays)}")  # fmt: skip
-            for array, value in zip(arrays, saved[name], strict=True):
-                array[...] = value
-        envs._started = saved["started"]
-        envs._done[:] = saved["done"]
+        self.envs.set_state(saved)
         self.returns[:] = saved["returns"]
         self.lengths[:] = saved["lengths"]
 

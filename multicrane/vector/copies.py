@@ -89,6 +89,34 @@ class Copies:
         require_reset(self._started, "action_masks")
         return self.buffers.masks.copy()
 
+    def get_state(self) -> dict[str, Any]:
+        """A snapshot of every copy (state arrays, generators included, output buffers and
+        flags) that ``set_state`` restores: the copies then go on exactly as from here."""
+        return {
+            "state": [a.copy() for a in self.state],
+            "buffers": [a.copy() for a in self.buffers],
+            "started": self._started,
+            "done": self._done.copy(),
+        }
+
+    def set_state(self, saved: dict[str, Any]) -> None:
+        """Return every copy to a ``get_state`` snapshot of an env of the same scenario,
+        options and copy count (ValueError naming the array that does not fit). State arrays
+        may differ in size (the motion env's event tables grow); buffers may not."""
+        for name, arrays in (("state", self.state), ("buffers", self.buffers)):
+            if len(saved[name]) != len(arrays):
+                raise ValueError(f"saved vector env {name}: {len(saved[name])} arrays, "
+                                 f"expected {len(arrays)}")  # fmt: skip
+            for field, array, value in zip(arrays._fields, arrays, saved[name], strict=True):
+                if value.dtype != array.dtype or (name == "buffers" and value.shape != array.shape):
+                    raise ValueError(f"saved vector env {name}.{field}: {value.dtype}"
+                                     f"{value.shape}, expected {array.dtype}{array.shape}")
+        self.state = type(self.state)(*(a.copy() for a in saved["state"]))
+        for array, value in zip(self.buffers, saved["buffers"], strict=True):
+            array[...] = value
+        self._started = bool(saved["started"])
+        self._done[:] = saved["done"]
+
     def generator(self, copy: int) -> np.random.Generator:
         """A numpy generator in copy ``copy``'s present state (the copy's own goes on
         unchanged): the one its next draws (crane orders, starts) will come from."""
