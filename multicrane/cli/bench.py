@@ -43,7 +43,8 @@ buffers per copy, and the seconds a fresh process needs to its first step, with 
 numba cache (the compile) and with the cache the first left. Configurations: ``--paper``'s,
 else E1S1 and E4S1; each figure is the median of three interleaved rounds. Then the same
 for the vector motion env (``MotionVectorEnv``) on hall-4c with 4 cranes, joint steps per
-second under uniform random legal actions, beside the one-site ``parallel_env``.
+second under uniform random legal actions, beside the one-site ``parallel_env``; with
+``--events LEVEL`` both motion envs play with site events of that level (docs/uncertainty.md).
 
 With ``--train`` it times training, rollouts and updates (``--paper``'s first configuration,
 else E1S1; one torch thread): SB3's MaskablePPO at the paper's settings for ``--steps`` steps
@@ -74,6 +75,9 @@ def register(sub) -> None:
                    help="task: time task-level decision rounds (planning included)")
     p.add_argument("--vector", action="store_true",
                    help="the vector paper env (multicrane.vector) beside the one-site env")
+    p.add_argument("--events", metavar="LEVEL", default=None,
+                   help="with --vector: site events of this level in the motion envs "
+                   "(none, low, medium, high)")
     p.add_argument("--train", action="store_true",
                    help="training steps/s: the lean PPO beside SB3's MaskablePPO")
     p.add_argument("--scaling", action="store_true",
@@ -84,14 +88,19 @@ def register(sub) -> None:
 
 
 def joint_steps_per_second(
-    scenario, cranes: int | None, steps: int, seed: int = 0, auto: bool = False
+    scenario,
+    cranes: int | None,
+    steps: int,
+    seed: int = 0,
+    auto: bool = False,
+    events: str | None = None,
 ) -> float:
     """Joint steps per second of the PettingZoo parallel environment: the wall time of
     ``steps`` joint steps (each with its random legal joint action, drawn for all cranes at
     once by ``random_legal_policy``, and the resets when episodes end)."""
     import multicrane
 
-    env = multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto)
+    env = multicrane.parallel_env(scenario, n_cranes=cranes, auto=auto, events=events)
     policy = random_legal_policy(env.possible_agents, np.random.default_rng(seed))
     return _steps_per_second(env, policy, seed, steps)
 
@@ -220,12 +229,18 @@ def run_vector_motion(args: argparse.Namespace) -> int:
     from multicrane.vector import bench as vector
 
     scenario, cranes = "hall-4c", 4
+    if args.events is not None:
+        print(f"site events: {args.events}")
     print(f"{'scenario':<8} {'env':<9} {'copies':>6} {'joint steps/s':>13} {'bytes/copy':>11}")
     rounds: dict[int, list[float]] = {0: [], **{b: [] for b in VECTOR_COPIES}}
     for _ in range(3):  # interleaved, as above
-        rounds[0].append(joint_steps_per_second(scenario, cranes, args.steps // 4))
+        rounds[0].append(
+            joint_steps_per_second(scenario, cranes, args.steps // 4, events=args.events)
+        )
         for b in VECTOR_COPIES:
-            rounds[b].append(vector.motion_steps_per_second(scenario, cranes, b))
+            rounds[b].append(
+                vector.motion_steps_per_second(scenario, cranes, b, events=args.events)
+            )
     print(f"{scenario:<8} {'one-site':<9} {1:>6} {np.median(rounds[0]):>13,.0f}")
     for b in VECTOR_COPIES:
         print(f"{scenario:<8} {'vector':<9} {b:>6} {np.median(rounds[b]):>13,.0f} "
@@ -264,6 +279,10 @@ def run(args: argparse.Namespace) -> int:
         return run_train(args)
     if args.scaling:
         return run_scaling(args)
+    if args.events is not None and not args.vector:
+        from multicrane.cli.common import error
+
+        return error("--events goes with --vector (the motion envs' site events)")
     if args.vector:
         return run_vector(args)
     if decision_mode(args.decisions).task_level:

@@ -73,11 +73,17 @@ def sample_legal(rng, masks, out):
 
 
 def motion_steps_per_second(
-    scenario: str, cranes: int | None, num_envs: int, seconds: float = 0.5, seed: int = 0
+    scenario: str,
+    cranes: int | None,
+    num_envs: int,
+    seconds: float = 0.5,
+    seed: int = 0,
+    events: str | None = None,
 ) -> float:
     """Joint copy-steps per second of ``MotionVectorEnv.step`` under uniform random legal
-    actions (resets included when episodes end), timed over at least ``seconds``."""
-    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes)
+    actions (resets included when episodes end), timed over at least ``seconds``; ``events``:
+    a site-events level (None: the scenario's own)."""
+    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes, events=events)
     env.reset(seed=seed)
     rng = state_of(np.random.default_rng(seed))[None].copy()
     actions = np.zeros((num_envs, env.n_cranes), dtype=np.int64)

@@ -35,7 +35,8 @@ def fake_measurements(monkeypatch) -> None:
     copy, 30 s to start with an empty numba cache and 1.5 s with it, 200,000 bytes a copy."""
     monkeypatch.setattr(bench, "steps_per_second", lambda config, b: 1000.0 * b)
     monkeypatch.setattr(bench, "start_seconds", lambda config, cranes=None: (30.0, 1.5))
-    monkeypatch.setattr(bench, "motion_steps_per_second", lambda scenario, cranes, b: 10.0 * b)
+    monkeypatch.setattr(bench, "motion_steps_per_second",
+                        lambda scenario, cranes, b, events=None: 10.0 * b)  # fmt: skip
     monkeypatch.setattr(bench, "motion_bytes_per_copy", lambda scenario, cranes, b: 2e5)
 
 
@@ -49,3 +50,24 @@ def test_the_command_prints_both_envs(monkeypatch, capsys):
         ["1", "1,000"], ["64", "64,000"], ["1024", "1,024,000"], ["4096", "4,096,000"]
     ]
     assert "30.0 s with an empty numba cache" in out[6] and "1.50 s with the cache" in out[6]
+
+
+def test_events_reach_both_motion_envs_and_need_vector(monkeypatch, capsys):
+    fake_measurements(monkeypatch)
+    levels = []
+    monkeypatch.setattr(bench, "motion_steps_per_second",
+                        lambda scenario, cranes, b, events=None: levels.append(events) or 1.0)
+    from multicrane.cli import bench as bench_command
+
+    one_site = []
+    monkeypatch.setattr(bench_command, "joint_steps_per_second",
+                        lambda *a, events=None, **k: one_site.append(events) or 1.0)
+    assert main(["bench", "--vector", "--paper", "E2S2", "--steps", "50", "--events", "high"]) == 0
+    assert "site events: high" in capsys.readouterr().out
+    assert set(levels) == {"high"} and set(one_site) == {"high"}
+    assert main(["bench", "--events", "high"]) == 2
+    assert "--events goes with --vector" in capsys.readouterr().err
+
+
+def test_the_vector_motion_env_is_timed_with_events():
+    assert bench.motion_steps_per_second("e2s3", 2, 4, seconds=0.05, events="high") > 0
