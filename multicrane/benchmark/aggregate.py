@@ -156,8 +156,11 @@ def collect(sweep: Sweep) -> tuple[Results, list[str]]:
 
 
 def make_cells(sweep: Sweep, results: Results) -> list[Cell]:
+    """Every configuration x algorithm; a pair the sweep does not run (``algo_configs``) gets
+    a cell without seeds."""
     return [
-        make_cell(config, algo, results.get((config, algo), dict.fromkeys(sweep.seeds)))
+        make_cell(config, algo, results.get((config, algo), dict.fromkeys(
+            sweep.seeds if config in sweep.algo_configs.get(algo, sweep.configs) else ())))
         for config in sweep.configs
         for algo in sweep.algos
     ]

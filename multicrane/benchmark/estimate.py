@@ -11,16 +11,23 @@ from __future__ import annotations
 import heapq
 from collections.abc import Iterable, Sequence
 
-from multicrane.benchmark.profiles import STANDARD_SETTINGS, RunSpec, jsonable
+from multicrane.benchmark.profiles import LEAN_ALGOS, STANDARD_SETTINGS, RunSpec, jsonable
 
 # Training steps per second of one process with one torch thread, measured on the 2-core
 # development machine (paper settings; the environment itself runs at 25,000+ steps/s in
 # every configuration, so the learner sets the pace).
-THROUGHPUT = {"dqn": 450, "double_dqn": 450, "a2c": 5000, "ppo": 3000, "maskable_ppo": 2500,
-              "lean_ppo": 30000}  # lean_ppo: 33,772 measured (multicrane bench --train)
-# Greedy evaluation: seconds per environment step (model prediction + environment), and
-# the step limit of an episode (an untrained policy runs to it).
+THROUGHPUT = {"dqn": 450, "double_dqn": 450, "a2c": 5000, "ppo": 3000, "maskable_ppo": 2500}
+# lean_ppo by the width of its first layer (net_arch[0]; a width not listed: the slowest),
+# end to end (rollouts, updates, checkpoints) in 1,000,000-step runs with another process on
+# the 2 cores: 64 (the default) 21,078 steps/s on E1S4 (multicrane bench --train: 33,772 for
+# the training loop alone, quiet machine); 256 (paper-budget's) 8,986 on E1S4, 9,286 on E2S1,
+# 7,482 on E3S1, 7,595 on E4S1.
+LEAN_THROUGHPUT = {64: 20000, 256: 7500}
+# Greedy evaluation: seconds per environment step (model prediction + environment; lean_ppo's
+# measured 0.43 ms in that run, the exact planner's gap included), and the step limit of an
+# episode (an untrained policy runs to it).
 EVAL_STEP_SECONDS = 0.00025
+LEAN_EVAL_STEP_SECONDS = 0.0005
 EPISODE_LIMIT = {"E1": 100, "E2": 100, "E3": 300, "E4": 600}
 RUN_OVERHEAD_SECONDS = 1.0  # building the environments and model, writing files
 # The standard profile's settings (profiles.STANDARD_SETTINGS), measured on the same machine
@@ -48,15 +55,25 @@ def estimate_seconds(spec: RunSpec, done_steps: int = 0) -> float:
     step limit (the pessimistic case)."""
     t = spec.train
     left = max(0, t["total_steps"] - done_steps)
-    if _standard(spec):  # curve points at 0, every, ..., the end; then the final evaluation
-        points = (left // t["eval_every"] + 1) if t["eval_every"] else 0
-        episodes = points * t["eval_episodes"] + (t["final_episodes"] or t["eval_episodes"])
-        episode = EPISODE_LIMIT[spec.config[:2]] * STANDARD_EVAL_STEP_SECONDS
-        return left / STANDARD_THROUGHPUT[spec.algo] + episodes * episode + RUN_OVERHEAD_SECONDS
-    train = left / THROUGHPUT[spec.algo]
-    points = (left // t["eval_every"] + 2) if t["eval_every"] else 1
-    episode = EPISODE_LIMIT[spec.config[:2]] * EVAL_STEP_SECONDS
-    return train + points * t["eval_episodes"] * episode + RUN_OVERHEAD_SECONDS
+    limit = EPISODE_LIMIT[spec.config[:2]]
+    if _standard(spec):
+        train = left / STANDARD_THROUGHPUT[spec.algo]
+        evaluation = _episodes(t, left) * limit * STANDARD_EVAL_STEP_SECONDS
+    elif spec.algo in LEAN_ALGOS:
+        net = t["hyperparams"].get("policy_kwargs", {}).get("net_arch", [64])
+        train = left / LEAN_THROUGHPUT.get(net[0], min(LEAN_THROUGHPUT.values()))
+        evaluation = _episodes(t, left) * limit * LEAN_EVAL_STEP_SECONDS
+    else:
+        train = left / THROUGHPUT[spec.algo]
+        points = (left // t["eval_every"] + 2) if t["eval_every"] else 1
+        evaluation = points * t["eval_episodes"] * limit * EVAL_STEP_SECONDS
+    return train + evaluation + RUN_OVERHEAD_SECONDS
+
+
+def _episodes(t: dict, left: int) -> int:
+    """Evaluation episodes: curve points at 0, every, ..., the end; then the final ones."""
+    points = (left // t["eval_every"] + 1) if t["eval_every"] else 0
+    return points * t["eval_episodes"] + (t["final_episodes"] or t["eval_episodes"])
 
 
 def estimate_wall(

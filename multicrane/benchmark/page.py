@@ -204,7 +204,7 @@ def run_lines(
     sweep: Sweep, cells: Sequence[Cell], labels: Mapping[str, str], problems: Sequence[str]
 ) -> list[str]:
     """The list under the metric: budget, runs finished, labels, runs pending, bad files."""
-    total = len(sweep.configs) * len(sweep.algos) * len(sweep.seeds)
+    total = len(sweep.runs())
     out = [
         f"- Budget: {sweep.budget()}; profile `{sweep.profile}`. Table I: "
         f"{PAPER_STEPS:,} steps, {PAPER_SEEDS} seeds, the paper's public code (the "

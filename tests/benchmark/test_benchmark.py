@@ -560,6 +560,7 @@ def test_profiles_and_a_missing_extra(tmp_path, capsys, monkeypatch):
         "smoke",
         "quick",
         "standard",
+        "paper-budget",
         "paper",
     ]
     sweep = small_sweep(tmp_path)
