@@ -6,14 +6,16 @@ already scheduled), on the crane that can finish it soonest (among those with re
 respects every constraint of the relaxation in ``multicrane.bounds.makespan``: one task at a time
 per
 crane, arrival no earlier than the step the target's last support is assembled, and a beam
-(or panel) claimed no earlier than the step some target it may fill is supported. Its makespan is an
-upper bound on the relaxation's optimum (not on the real problem's); when it equals the
-workload floor the relaxation is solved.
+(or panel) claimed no earlier than the step some target it may fill is supported; with events,
+no claim before the component is due nor while its crane is down, and a task paused by its
+crane's breakdowns (``task_end``). Its makespan is an upper bound on the relaxation's optimum
+(not on the real problem's); when it equals the workload floor the relaxation is solved.
 """
 
 from __future__ import annotations
 
 from multicrane.bounds.lift_options import Option, Tasks
+from multicrane.bounds.outages import finish, first_up
 from multicrane.core.kinds import waits_for_target
 
 
@@ -50,24 +52,30 @@ def list_schedule(tasks: Tasks, assignment: dict[int, Option]) -> dict[int, tupl
                     if all(s in fill for s in tasks.supports[t])
                 ]
                 claimable = min(known) - 1
+            due = tasks.release.get(c, 0)
             for o in choices[c]:
                 crane = o.crane if o.crane is not None else min(range(n), key=free_at.__getitem__)
-                start = max(0, ready - 1 - o.moves, claimable, free_at[crane])
-                key = (start, start + o.duration, -o.duration, c, crane)
+                earliest = max(due, ready - 1 - o.moves, claimable, free_at[crane])
+                start = first_up(tasks.outages_of(o.crane), earliest)
+                key = (start, task_end(tasks, start, o), -o.duration, c, crane)
                 if best is None or key < best[0]:
                     best = (key, c, crane, start, o)
         if best is None:
             raise ValueError(
                 f"{tasks.scenario.source}: no schedule: some target's supports are never filled"
             )
-        _, c, crane, start, o = best
+        (_, end, *_), c, crane, start, o = best
         plan[c] = (start, o)
-        fill[o.target] = start + o.duration
-        free_at[crane] = start + o.duration
+        fill[o.target] = free_at[crane] = end
         pending.remove(c)
     return plan
 
 
-def makespan(plan: dict[int, tuple[int, Option]]) -> int:
+def task_end(tasks: Tasks, start: int, option: Option) -> int:
+    """The end of the option's task started at ``start``, paused by its crane's breakdowns."""
+    return finish(tasks.outages_of(option.crane), start, option.duration)
+
+
+def makespan(tasks: Tasks, plan: dict[int, tuple[int, Option]]) -> int:
     """The makespan of a ``list_schedule`` plan (0 when there is nothing to place)."""
-    return max((start + o.duration for start, o in plan.values()), default=0)
+    return max((task_end(tasks, start, o) for start, o in plan.values()), default=0)

@@ -45,6 +45,16 @@ the optimum of the relaxation is at most the best achievable makespan:
   tasks that never exceed ``n`` at a time can always be given to ``n`` cranes, and the two
   models have the same optimum.
 
+- *Site events in hindsight* (``events``): an instance's schedule is drawn at reset from the
+  seed and no action changes it, so the bound may know it. A late component is claimed no
+  earlier than it is due (``start >= arrival``: it appears at that time at the earliest). A
+  breakdown ``[a, b)`` of crane ``k`` pauses whatever ``k`` holds; the task's interval on
+  ``k`` ends after ``duration`` up steps (``multicrane.bounds.outages.add_paused_task``) and
+  its arrival counts back ``assembly_steps`` from its end (``end - assembly_steps >=`` the
+  support's end): mapping an episode's task to the last ``duration`` up steps before its
+  assembly ends gives a schedule of this model. Cranes with breakdowns get options per
+  crane. Closures enter only the floors (``multicrane.bounds.floors``; docs/bound.md).
+
 Cuts added (each implied by the model, stated to help the solver prove the bound): the
 workload floor with distinct targets, ``makespan >= ceil(W / n_cranes)`` with ``W`` the least
 total duration of an assignment of the components to distinct targets (a minimum-cost
@@ -68,12 +78,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from multicrane.bounds.first_schedule import list_schedule
+from multicrane.bounds.first_schedule import list_schedule, task_end
 from multicrane.bounds.first_schedule import makespan as schedule_makespan
+from multicrane.bounds.floors import floor_of
 from multicrane.bounds.lift_options import Option, Tasks, task_options
+from multicrane.bounds.outages import add_paused_task
 from multicrane.core.kinds import waits_for_target
 from multicrane.core.schema import Scenario
 from multicrane.scenario.loader import load_scenario
+from multicrane.sim.events import EventSchedule, EventSpec
 
 
 @dataclass(frozen=True)
@@ -135,6 +148,7 @@ class _Model:
     presence: dict[Option, Any] = field(default_factory=dict)  # option -> chosen
     intervals: list[Any] = field(default_factory=list)
     by_crane: dict[int | None, list[tuple[Any, Option, Any]]] = field(default_factory=dict)
+    paused: set[Option] = field(default_factory=set)  # options on a crane with breakdowns
 
 
 def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None):
@@ -145,22 +159,31 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
     """
     from ortools.sat.python import cp_model
 
-    m = _start_model(cp_model.CpModel(), tasks)
+    m = _start_model(cp_model.CpModel(), tasks, hint)
     _add_tasks(m, tasks)
     _add_readiness(m, tasks)
     _add_cranes(m, tasks.n_cranes)
     m.model.Minimize(m.makespan)
     if hint is not None:
-        _add_hint(m, hint)
+        _add_hint(m, tasks, hint)
     return m.model, m.makespan
 
 
-def _start_model(model, tasks: Tasks) -> _Model:
-    """The options by component, the horizon, the makespan and a fill time per free target."""
+def _start_model(model, tasks: Tasks, hint: dict[int, tuple[int, Option]] | None) -> _Model:
+    """The options by component, the horizon, the makespan and a fill time per free target.
+
+    The horizon is that of one crane doing every task at its longest option, after the last
+    release and its own breakdowns; with events and a hint, the hint's makespan (the optimum
+    is no later), which keeps the breakdowns the model states few."""
     by_comp: dict[int, list[Option]] = {c: [] for c in tasks.comps}
     for o in tasks.options:
         by_comp[o.comp].append(o)
     horizon = sum(max(o.duration for o in opts) for opts in by_comp.values())
+    if tasks.has_events:
+        horizon += max(tasks.release.values(), default=0)
+        horizon += max((sum(b - a for a, b in o) for o in tasks.outages), default=0)
+        if hint is not None:
+            horizon = min(horizon, schedule_makespan(tasks, hint))
     floor = floor_of(tasks)
     makespan = model.NewIntVar(floor, max(horizon, floor), "makespan")
     free_targets = [t for t in range(len(tasks.supports)) if t not in tasks.prebuilt_targets]
@@ -175,19 +198,29 @@ def _start_model(model, tasks: Tasks) -> _Model:
 
 
 def _add_tasks(m: _Model, tasks: Tasks) -> None:
-    """Each component one task of one option (crane, target); each free target filled once."""
+    """Each component one task of one option (crane, target); each free target filled once;
+    a late component claimed no earlier than it is due; breakdowns pause their crane's task."""
     model, horizon, start, end = m.model, m.horizon, m.start, m.end
     for c, opts in m.by_comp.items():
-        start[c] = model.NewIntVar(0, horizon, f"start_{c}")
+        start[c] = model.NewIntVar(tasks.release.get(c, 0), horizon, f"start_{c}")
         end[c] = model.NewIntVar(0, horizon, f"end_{c}")
         model.Add(m.makespan >= end[c])
         for o in opts:
             p = model.NewBoolVar(f"p_{c}_{o.target}_{o.crane}")
             m.presence[o] = p
-            iv = model.NewOptionalFixedSizeIntervalVar(start[c], o.duration, p, f"iv_{o}")
+            outages = tuple(w for w in tasks.outages_of(o.crane) if w[0] < horizon)
+            if outages:
+                name = f"o_{c}_{o.target}_{o.crane}"
+                iv, ends, size = add_paused_task(model, start[c], o.duration, p, outages,
+                                                 horizon, name)  # fmt: skip
+                model.Add(end[c] == ends).OnlyEnforceIf(p)
+                m.paused.add(o)
+            else:
+                iv = model.NewOptionalFixedSizeIntervalVar(start[c], o.duration, p, f"iv_{o}")
+                model.Add(end[c] == start[c] + o.duration).OnlyEnforceIf(p)
+                size = o.duration * p
             m.intervals.append(iv)
-            m.by_crane.setdefault(o.crane, []).append((iv, o, p))
-            model.Add(end[c] == start[c] + o.duration).OnlyEnforceIf(p)
+            m.by_crane.setdefault(o.crane, []).append((iv, o, size))
             model.Add(m.fill[o.target] == end[c]).OnlyEnforceIf(p)
         model.AddExactlyOne(m.presence[o] for o in opts)
     for t in m.free_targets:  # as many components as free targets: each filled once
@@ -209,8 +242,13 @@ def _add_readiness(m: _Model, tasks: Tasks) -> None:
         else:
             ready[t] = model.NewIntVar(0, horizon, f"ready_{t}")
             model.AddMaxEquality(ready[t], times)
+    assembly = tasks.scenario.assembly_steps
     for o, p in m.presence.items():
-        if not isinstance(ready[o.target], int):
+        if isinstance(ready[o.target], int):
+            continue
+        if o in m.paused:  # it arrives before its last assembly_steps up steps
+            model.Add(m.end[o.comp] - assembly >= ready[o.target]).OnlyEnforceIf(p)
+        else:
             model.Add(m.start[o.comp] + 1 + o.moves >= ready[o.target]).OnlyEnforceIf(p)
     for c in tasks.comps:
         if not waits_for_target(tasks.scenario.components[c].kind):
@@ -227,29 +265,24 @@ def _add_cranes(m: _Model, n: int) -> None:
     """Identical cranes as one cumulative resource, cranes with reach one by one."""
     model, makespan = m.model, m.makespan
     model.AddCumulative(m.intervals, [1] * len(m.intervals), n)
-    model.Add(n * makespan >= sum(o.duration * p for o, p in m.presence.items()))
+    model.Add(n * makespan >= sum(size for items in m.by_crane.values() for _, _, size in items))
     if None not in m.by_crane:
         for items in m.by_crane.values():
             model.AddNoOverlap(iv for iv, _, _ in items)
-            model.Add(makespan >= sum(o.duration * p for _, o, p in items))
+            model.Add(makespan >= sum(size for _, _, size in items))
 
 
-def _add_hint(m: _Model, hint: dict[int, tuple[int, Option]]) -> None:
+def _add_hint(m: _Model, tasks: Tasks, hint: dict[int, tuple[int, Option]]) -> None:
     """A schedule of the relaxation as the solver's starting point."""
     model = m.model
     for c, (s, chosen) in hint.items():
+        end = task_end(tasks, s, chosen)
         model.AddHint(m.start[c], s)
-        model.AddHint(m.end[c], s + chosen.duration)
-        model.AddHint(m.fill[chosen.target], s + chosen.duration)
+        model.AddHint(m.end[c], end)
+        model.AddHint(m.fill[chosen.target], end)
         for o in m.by_comp[c]:
             model.AddHint(m.presence[o], o == chosen)
-    model.AddHint(m.makespan, max(s + o.duration for s, o in hint.values()))
-
-
-def floor_of(tasks: Tasks) -> int:
-    """The makespan no schedule beats: the workload floor with distinct targets, or the
-    longest task's shortest option."""
-    return max([tasks.assignment_floor(), *tasks.shortest.values()])
+    model.AddHint(m.makespan, schedule_makespan(tasks, hint))
 
 
 # -- solving ---------------------------------------------------------------------------------------
@@ -261,22 +294,37 @@ def lower_bound(
     seed: int = 0,
     time_limit: float = 60.0,
     workers: int = 2,
+    events: str | EventSpec | EventSchedule | None = None,
 ) -> BoundResult:
     """A proven lower bound on the makespan of the episode ``reset(seed=seed)`` starts.
 
     ``scenario``: a ``Scenario``, a shipped name or a path; ``n_cranes``: default the
-    scenario's; ``time_limit`` (seconds) and ``workers`` go to CP-SAT. See the module doc for
-    the model and ``BoundResult`` for the meaning of the status.
+    scenario's; ``time_limit`` (seconds) and ``workers`` go to CP-SAT. ``events``: None
+    bounds the undisturbed site (a bound for every event schedule too); a level name or an
+    ``EventSpec`` bounds the episode ``MultiCraneEnv(events=events).reset(seed)`` plays,
+    knowing its schedule's late deliveries and breakdowns; an ``EventSchedule``, the episode
+    with that schedule (a record's). See the module doc for the model and ``BoundResult`` for
+    the meaning of the status.
     """
-    from ortools.sat.python import cp_model
-
     if not time_limit > 0:
         raise ValueError(f"time_limit must be positive, got {time_limit!r}")
     if workers < 1:
         raise ValueError(f"workers must be at least 1, got {workers!r}")
     began = time.perf_counter()
-    scenario = load_scenario(scenario)
-    tasks = task_options(scenario, n_cranes, seed)
+    tasks = task_options(load_scenario(scenario), n_cranes, seed, events)
+    return solve_tasks(tasks, seed, time_limit, workers, began)
+
+
+def solve_tasks(
+    tasks: Tasks, seed: int = 0, time_limit: float = 60.0, workers: int = 2,
+    began: float | None = None,
+) -> BoundResult:  # fmt: skip
+    """Solve the relaxation of ``tasks`` (``task_options``' for ``seed``): see ``lower_bound``.
+    ``began``: the ``time.perf_counter()`` the reported seconds count from (default: now)."""
+    from ortools.sat.python import cp_model
+
+    began = time.perf_counter() if began is None else began
+    scenario = tasks.scenario
 
     def result(value: int, status: str, incumbent: int | None, notes: list[str]):
         return BoundResult(
@@ -295,12 +343,17 @@ def lower_bound(
         return result(0, "optimal", 0, ["every component is pre-built"])
     floor = floor_of(tasks)
     plan = list_schedule(tasks, tasks.assignment())
-    first = schedule_makespan(plan)
     notes = [
         f"{len(tasks.options)} options; workload floor {tasks.workload_floor}, "
-        f"{tasks.assignment_floor()} with distinct targets; list schedule {first}",
+        f"{tasks.assignment_floor()} with distinct targets; list schedule "
+        f"{schedule_makespan(tasks, plan)}",
         "reach: per-crane zones" if scenario.crane_specs else "no reach: identical cranes",
     ]
+    if tasks.has_events:
+        late = sum(r > 0 for r in tasks.release.values())
+        down = sum(len(o) for o in tasks.outages)
+        notes.append(f"events in hindsight: {late} late components, {down} breakdowns "
+                     f"(options per crane); floor {floor}")  # fmt: skip
     model, _ = build_model(tasks, hint=plan)
     solver = cp_model.CpSolver()
     solver.parameters.max_time_in_seconds = float(time_limit)

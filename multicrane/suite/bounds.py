@@ -1,12 +1,13 @@
 """Each instance's proven makespan lower bound (CP-SAT), computed once and kept in bounds.json.
 
 ``compute_bounds(manifest, ids)`` runs ``multicrane.bounds.makespan.lower_bound`` on each
-instance (its scenario, crane count and reset seed; the size's time limit, one worker by
-default) and merges the results into ``FOLDER/bounds.json``: per instance the bound, the
-solver's status (``optimal``: the relaxation's optimum; ``feasible``/``unknown``: its best
-proven bound when the time ran out), the relaxation's best schedule, the solver's seconds and
-the time limit. The bound ignores site events: events only delay components and take cranes
-or cells away, so a bound of the static site holds for the episode with events too.
+instance (its scenario, crane count, reset seed and event level; the size's time limit, one
+worker by default) and merges the results into ``FOLDER/bounds.json``: per instance the bound,
+the solver's status (``optimal``: the relaxation's optimum; ``feasible``/``unknown``: its best
+proven bound when the time ran out), the relaxation's best schedule, the solver's seconds, the
+time limit and ``events`` (the level whose schedule the bound knows, ``none`` without). An
+instance's event schedule is drawn from its reset seed at reset and no action changes it, so
+the bound knows it in hindsight: late deliveries and crane breakdowns (docs/bound.md).
 The file names the manifest's checksum; ``read_bounds`` refuses one made for another manifest.
 """
 
@@ -58,11 +59,13 @@ def compute_bounds(
         if ids is not None and instance.id not in ids:
             continue
         limit = seconds if seconds is not None else time_limit(manifest, instance.track)
+        events = None if instance.events == "none" else instance.events
         r = lower_bound(manifest.scenario(instance), instance.cranes, instance.seed,
-                        time_limit=limit, workers=workers)  # fmt: skip
+                        time_limit=limit, workers=workers, events=events)  # fmt: skip
         known[instance.id] = {
             "bound": r.value, "status": r.status, "relaxation_makespan": r.relaxation_makespan,
             "wall_s": round(r.wall_s, 1), "time_limit": limit, "workers": workers,
+            "events": instance.events,
         }  # fmt: skip
         if log:
             log(f"{instance.id}: bound {r.value} ({r.status}, {r.wall_s:.1f} s)")
