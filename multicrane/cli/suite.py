@@ -19,6 +19,7 @@ lower bounds, best-known plans and a verified leaderboard (docs/suite.md).
     multicrane suite page                     # docs/suite-leaderboard.md and best.json
     multicrane suite build v1 --check         # the shipped files are rebuilt bit for bit
     multicrane suite bounds v1 --track small  # CP-SAT bounds into bounds.json (one worker)
+    multicrane suite improve v1 --track small --seconds 60   # LNS on the best-known plans
 
 VERSION is a shipped version (v1) or a folder holding a manifest.toml.
 """
@@ -59,6 +60,16 @@ def register(sub) -> None:
     n.add_argument("--time-limit", type=float, help="seconds per bound (default: the size's)")
     n.add_argument("--workers", type=int, default=1)
     n.set_defaults(func=bounds)
+    i = cmds.add_parser("improve", help="improve the best-known plans by large-neighbourhood "
+                        "search")  # fmt: skip
+    i.add_argument("version", help="v1, or a folder with a manifest.toml")
+    i.add_argument("--track", required=True, help="small, small-reach, small-events, ...")
+    i.add_argument("--seconds", type=float, default=60.0, help="search budget per instance")
+    i.add_argument("--instances", nargs="+", help="only these instance ids")
+    i.add_argument("--seed", type=int, default=0, help="the search's random seed")
+    i.add_argument("--out", type=Path, help="results file (default: suite-VERSION-TRACK-lns"
+                   ".json here; .gz: compressed)")  # fmt: skip
+    i.set_defaults(func=improve)
 
 
 def _log(line: str) -> None:
@@ -179,4 +190,29 @@ def bounds(args: argparse.Namespace) -> int:
         compute_bounds(manifest, ids, args.time_limit, args.workers, log=print)
     except (SuiteError, ValueError) as exc:
         return error(exc)
+    return 0
+
+
+def improve(args: argparse.Namespace) -> int:
+    from multicrane.suite.lns import LABEL, improve_track
+    from multicrane.suite.manifest import SuiteError, read_manifest
+    from multicrane.suite.results import results_table, write_results
+
+    if not args.seconds > 0:
+        return error(f"--seconds must be positive, got {args.seconds}")
+    try:
+        manifest = read_manifest(args.version)
+        known = {i.id for i in manifest.track(args.track)}
+        unknown = sorted(set(args.instances or ()) - known)
+        if unknown:
+            raise SuiteError(f"not in track {args.track}: {', '.join(unknown)}")
+        results = improve_track(manifest, args.track, args.seconds, args.instances, args.seed,
+                                log=_log)  # fmt: skip
+    except SuiteError as exc:
+        return error(exc)
+    out = args.out or Path(f"suite-{manifest.version}-{args.track}-{LABEL}.json")
+    write_results(out, results)
+    print(f"{LABEL} on {manifest.version} track {args.track} ({args.seconds:g} s per instance):")
+    print(results_table(results))
+    print(f"wrote {out}")
     return 0

@@ -82,13 +82,20 @@ def write_best(manifest: Manifest, best: dict[str, dict[str, Any]]) -> Path:
 
 def read_best(manifest: Manifest) -> dict[str, int]:
     """Instance id -> best-known makespan (empty without a best.json for this manifest)."""
+    return {k: v["makespan"] for k, v in read_best_entries(manifest).items()}
+
+
+def read_best_entries(manifest: Manifest) -> dict[str, dict[str, Any]]:
+    """Instance id -> its best.json entry: makespan, policy, decisions and the results file
+    (relative to the version's folder) that holds its record (empty without a best.json
+    for this manifest)."""
     path = manifest.folder / BEST
     if not path.is_file():
         return {}
     data = json.loads(path.read_text())
     if data.get("manifest_sha256") != manifest.sha256:
         return {}
-    return {k: v["makespan"] for k, v in data["instances"].items()}
+    return data["instances"]
 
 
 def leaderboard(manifest: Manifest, collected: list[dict[str, Any]],

@@ -79,18 +79,30 @@ def play_track(
     entries = []
     for instance in manifest.track(track):
         record, seconds = play_instance(manifest, instance, make_policy, label, decisions)
-        data = record.to_dict()
-        bound = bounds.get(instance.id, {})
-        entry = {
-            "id": instance.id, "makespan": makespan_of(record),
-            "success": bool(record.metrics["success"]), "seconds": round(seconds, 2),
-            "bound": bound.get("bound"), "bound_status": bound.get("status"),
-            "best_known": (best or {}).get(instance.id),
-            "record": {**data, record_file.CHECKSUM: record_file.checksum(data)},
-        }  # fmt: skip
-        entries.append(entry)
+        entries.append(results_entry(instance, record, seconds, bounds, best))
         if log:
-            log(entry)
+            log(entries[-1])
+    return results_dict(manifest, track, label, decisions, entries)
+
+
+def results_entry(instance: Instance, record: EpisodeRecord, seconds: float,
+                  bounds: dict[str, dict[str, Any]], best: dict[str, int] | None
+                  ) -> dict[str, Any]:  # fmt: skip
+    """One instance's entry of a results dict: its makespan, bound, best known and record."""
+    data = record.to_dict()
+    bound = bounds.get(instance.id, {})
+    return {
+        "id": instance.id, "makespan": makespan_of(record),
+        "success": bool(record.metrics["success"]), "seconds": round(seconds, 2),
+        "bound": bound.get("bound"), "bound_status": bound.get("status"),
+        "best_known": (best or {}).get(instance.id),
+        "record": {**data, record_file.CHECKSUM: record_file.checksum(data)},
+    }  # fmt: skip
+
+
+def results_dict(manifest: Manifest, track: str, label: str, decisions: str,
+                 entries: list[dict[str, Any]]) -> dict[str, Any]:  # fmt: skip
+    """A results dict (see the module doc) of the entries of one track."""
     return {
         "format": RESULTS_FORMAT, "suite": SUITE, "version": manifest.version,
         "manifest_sha256": manifest.sha256, "track": track, "policy": label,
