@@ -79,11 +79,12 @@ def motion_steps_per_second(
     seconds: float = 0.5,
     seed: int = 0,
     events: str | None = None,
+    obs_dtype=np.float32,
 ) -> float:
     """Joint copy-steps per second of ``MotionVectorEnv.step`` under uniform random legal
     actions (resets included when episodes end), timed over at least ``seconds``; ``events``:
-    a site-events level (None: the scenario's own)."""
-    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes, events=events)
+    a site-events level (None: the scenario's own); ``obs_dtype``: the env's."""
+    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes, events=events, obs_dtype=obs_dtype)
     env.reset(seed=seed)
     rng = state_of(np.random.default_rng(seed))[None].copy()
     actions = np.zeros((num_envs, env.n_cranes), dtype=np.int64)
@@ -100,9 +101,11 @@ def motion_steps_per_second(
             return calls * num_envs / elapsed
 
 
-def motion_bytes_per_copy(scenario: str, cranes: int | None, num_envs: int) -> float:
-    """Bytes of the motion env's state and buffers per copy."""
-    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes)
+def motion_bytes_per_copy(
+    scenario: str, cranes: int | None, num_envs: int, obs_dtype=np.float32
+) -> float:
+    """Bytes of the motion env's state and buffers per copy (observations in ``obs_dtype``)."""
+    env = MotionVectorEnv(num_envs, scenario, n_cranes=cranes, obs_dtype=obs_dtype)
     return (nbytes(env.state) + nbytes(env.buffers)) / num_envs
 
 

@@ -160,21 +160,22 @@ def _write_own(site, st, buf, b, k, force):
                     for i in range(site.length[t]):
                         _own_plane(site, buf, b, k, site.target_cells[t, i], 1)
     v = site.crane_start
+    den = site.crane_den  # the fractions' divisors (1 in whole numbers, but the step's)
     if comp >= 0:
         s = st.status[b, comp]
         moves = st.moves[b, comp]
         obs[b, k, v] = 1.0
         obs[b, k, v + 1] = s == IN_TRANSIT
         obs[b, k, v + 2] = s == ARRIVED
-        obs[b, k, v + 3] = min(moves / site.ratio_limit, 1.0)
+        obs[b, k, v + 3] = min(moves, site.ratio_limit) / den[0]
         obs[b, k, v + 4] = moves > site.move_limit
     else:
         for i in range(5):
             obs[b, k, v + i] = 0.0
-    obs[b, k, v + 5] = st.assembling[b, k] / site.assembly_steps
+    obs[b, k, v + 5] = st.assembling[b, k] / den[1]
     obs[b, k, v + 6] = 0.0  # pass-over: the automatic mode's only
-    obs[b, k, v + 7] = st.n_assembled[b] / len(site.length)
-    obs[b, k, v + 8] = min(st.step_count[b] / site.step_limit, 1.0)
+    obs[b, k, v + 7] = st.n_assembled[b] / den[2]
+    obs[b, k, v + 8] = min(st.step_count[b], site.step_limit) * site.step_num / den[3]
 
 
 @inlined

@@ -21,9 +21,16 @@ import numpy as np
 
 from multicrane.core.kinds import kind_spec
 from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.envs.observation import COMPONENT_FEATURES
 from multicrane.sim.site import WALL
 from multicrane.vector.paper_site import MAX_COMPONENTS
 from multicrane.vector.start_arrays import component_arrays, grid_arrays, padded
+
+# uint8 observations: the quantities whose divisors must fit a byte, and the step fraction's
+# scale (its divisor, the step limit, is larger: it is rounded down to 1/STEP_SCALE).
+WHOLE_SCALES = ("height", "x extent", "y extent", "move limit", "assembly steps",
+                "component count")  # fmt: skip
+STEP_SCALE = 255
 
 
 class MotionSite(NamedTuple):
@@ -81,16 +88,19 @@ class MotionSite(NamedTuple):
     own_z: np.ndarray  # (H + 1,) float32: a per-crane plane's value for top height z
     scaled: np.ndarray  # (P, 3) float32: a cell's (x, y, z) divided by the site size
     beam: np.ndarray  # (C,) float32: the component table's beam feature
-    ratio_limit: int  # max(move_limit, 1): the crane vector's moves divisor
+    ratio_limit: int  # max(move_limit, 1): where the crane vector's moves are clipped
+    crane_den: np.ndarray  # (4,) float64: the divisors of the crane vector's moves, assembly,
+    # assembled and step fractions (in whole numbers 1, 1, 1 and the step limit)
+    step_num: float  # the step fraction's numerator scale: 1, or 255 in whole numbers
     # -- site events (``multicrane.sim.events``) --------------------------------------------
     has_events: bool  # the env has an ``EventSpec``: schedules, and the events block
     events_start: int  # the observation's events block (delivered, available, closed plan)
     plan_y: int  # Y: a closure's column (x, y) is plan index x * Y + y
 
 
-def compile_motion_site(env: MultiCraneEnv) -> MotionSite:
+def compile_motion_site(env: MultiCraneEnv, whole: bool = False) -> MotionSite:
     """The arrays of ``env``'s scenario and options (ValueError for what the kernels do not
-    model)."""
+    model); ``whole``: the observation in whole numbers (``obs_scale``), for uint8."""
     sim, scenario = env.sim, env.scenario
     if scenario.n_components > MAX_COMPONENTS:
         raise ValueError(f"{scenario.name}: at most {MAX_COMPONENTS} components in the vector env")
@@ -123,15 +133,66 @@ def compile_motion_site(env: MultiCraneEnv) -> MotionSite:
         own_start=lay.own.start,
         rows_start=lay.components.start,
         crane_start=lay.crane.start,
-        plane_z=np.arange(H + 1, dtype=np.float32) / H,
-        own_z=np.array([z / H for z in range(H + 1)], dtype=np.float32),
-        scaled=_scaled(site, X, Y, H),
+        **_observed_values(env, X, Y, H, whole),
         beam=np.array([kind_spec(k).beam_feature for k in site.kind], dtype=np.float32),
         ratio_limit=max(site.move_limit, 1),
         has_events=sim.events is not None,
         events_start=lay.events.start,
         plan_y=Y,
     )
+
+
+def _observed_values(env: MultiCraneEnv, X: int, Y: int, H: int, whole: bool) -> dict:
+    """The observation's value tables and crane-vector divisors: the fractions of
+    ``multicrane.envs.observation``, or with ``whole`` their numerators (``obs_scale``)."""
+    site = env.sim.site
+    den = _fraction_divisors(env)
+    if not whole:
+        return {
+            "plane_z": np.arange(H + 1, dtype=np.float32) / H,
+            "own_z": np.array([z / H for z in range(H + 1)], dtype=np.float32),
+            "scaled": _scaled(site, X, Y, H),
+            "crane_den": np.array([*den, env.step_limit], dtype=np.float64),
+            "step_num": 1.0,
+        }
+    for what, n in zip(WHOLE_SCALES, (H, X - 1, Y - 1, *den), strict=True):
+        if n > 255:
+            raise ValueError(
+                f"{env.scenario.name}: obs_dtype uint8 needs every scale up to 255, "
+                f"the {what} is {n}"
+            )
+    z = np.arange(H + 1, dtype=np.float32)
+    cells = [site.cell(j) for j in range(site.size)]
+    return {
+        "plane_z": z,
+        "own_z": z,
+        "scaled": np.array(cells, dtype=np.float32).reshape(site.size, 3),
+        "crane_den": np.array([1, 1, 1, env.step_limit], dtype=np.float64),
+        "step_num": float(STEP_SCALE),
+    }
+
+
+def _fraction_divisors(env: MultiCraneEnv) -> list[int]:
+    """The divisors of the crane vector's moves, assembly and assembled fractions."""
+    scenario = env.scenario
+    return [max(env.sim.site.move_limit, 1), scenario.assembly_steps, scenario.n_components]
+
+
+def obs_scale(env: MultiCraneEnv, site: MotionSite) -> np.ndarray:
+    """(D,) float32: the divisor of each feature of the whole-number observation:
+    ``obs.astype(np.float32) / scale`` is the float32 observation, exactly, but for the step
+    fraction (``STEP_SCALE``: rounded down to 1/255)."""
+    X, Y, H = env.scenario.size
+    scale = np.ones(site.obs_size, dtype=np.float32)
+    scale[: site.rows_start] = H  # the shared and the per-crane planes
+    rows = scale[site.rows_start : site.crane_start].reshape(-1, COMPONENT_FEATURES)
+    rows[:, 8:] = [max(X - 1, 1), max(Y - 1, 1), H] * 2  # node 1 and node 2 (x, y, z)
+    v = site.crane_start
+    scale[[v + 3, v + 5, v + 7]] = _fraction_divisors(env)
+    scale[v + 8] = STEP_SCALE
+    if site.has_events:
+        scale[site.events_start + len(site.length) + site.n_cranes :] = H  # the closed plan
+    return scale
 
 
 def _obstacles(site, X: int, Y: int, H: int) -> np.ndarray:

@@ -11,7 +11,7 @@ interval tables grow when a drawn schedule needs more rows (``event_schedules``)
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -59,7 +59,7 @@ class MotionState(NamedTuple):
 class MotionBuffers(NamedTuple):
     """What a step writes for the caller, and the kernels' scratch space."""
 
-    obs: np.ndarray  # (B, N, D) float32
+    obs: np.ndarray  # (B, N, D) float32, or uint8 in whole numbers (``obs_scale``)
     final_obs: np.ndarray  # (B, N, D): the last observation of an episode that just ended
     masks: np.ndarray  # (B, N, A) int8
     rewards: np.ndarray  # (B, N) float64
@@ -91,8 +91,11 @@ class MotionBuffers(NamedTuple):
     chosen: np.ndarray  # (C,) int64 scratch: each component's start
 
 
-def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
-    """Zeroed state and buffers for ``n`` copies of a compiled site (reset them before use)."""
+def allocate(
+    site: MotionSite, n: int, obs_dtype: Any = np.float32
+) -> tuple[MotionState, MotionBuffers]:
+    """Zeroed state and buffers for ``n`` copies of a compiled site (reset them before use),
+    observations in ``obs_dtype`` (uint8: a site compiled in whole numbers)."""
     C, L = site.target_cells.shape
     N = site.n_cranes
     D = site.obs_size
@@ -109,8 +112,8 @@ def allocate(site: MotionSite, n: int) -> tuple[MotionState, MotionBuffers]:
         **_event_state(site, n),
     )
     buffers = MotionBuffers(
-        obs=np.zeros((n, N, D), dtype=np.float32),
-        final_obs=np.zeros((n, N, D), dtype=np.float32),
+        obs=np.zeros((n, N, D), dtype=obs_dtype),
+        final_obs=np.zeros((n, N, D), dtype=obs_dtype),
         masks=np.zeros((n, N, CLAIM_BASE + C), dtype=np.int8),
         rewards=np.zeros((n, N), dtype=np.float64),
         terms=np.zeros((n, N), dtype=np.float64),

@@ -20,6 +20,7 @@ from multicrane.vector import motion_rules as rules
 from multicrane.vector.compiled import inlined, kernel
 from multicrane.vector.motion_events import apply_events, start_events
 from multicrane.vector.motion_observe import observe_reset, observe_step
+from multicrane.vector.motion_prefetch import prefetch_copy
 from multicrane.vector.paper_reset import draw_start, lay_out
 from multicrane.vector.pcg64 import permutation
 
@@ -165,13 +166,16 @@ def reset_copies(site, st, buf, which):
 def step_batch(site, st, buf, actions, autoreset):
     """Step every copy with its row of ``actions`` ((B, N) int64); returns (copy, crane) of
     the first action outside ``0..A-1`` (nothing is stepped then), and the first copy whose
-    reset found no start; -1 where none."""
+    reset found no start; -1 where none. The next copy's lines are prefetched while a copy
+    steps (``motion_prefetch``)."""
     n, A = actions.shape[0], buf.masks.shape[2]
     for b in range(n):
         for k in range(site.n_cranes):
             if actions[b, k] < 0 or actions[b, k] >= A:
                 return b, k, -1
     for b in range(n):
+        if b + 1 < n:
+            prefetch_copy(site, st, buf, b + 1)
         if step_copy(site, st, buf, b, actions) and autoreset:
             for k in range(site.n_cranes):
                 for i in range(site.obs_size):

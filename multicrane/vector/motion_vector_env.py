@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -22,7 +23,7 @@ from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.sim.events import EventSpec
 from multicrane.vector.copies import Copies
 from multicrane.vector.event_schedules import draw_schedules
-from multicrane.vector.motion_site import compile_motion_site
+from multicrane.vector.motion_site import compile_motion_site, obs_scale
 from multicrane.vector.motion_state import allocate
 from multicrane.vector.motion_step import finish_resets, reset_copies, step_batch
 
@@ -65,6 +66,11 @@ class MotionVectorEnv(Copies):
     **Buffers.** ``step`` and ``reset`` return the env's own arrays, written in place by the
     next call; ``copy=True`` returns fresh arrays instead.
 
+    **uint8 observations** (``obs_dtype=np.uint8``): every feature as a whole number, its
+    fraction's numerator: ``obs.astype(np.float32) / env.obs_scale`` is the float32
+    observation bit for bit, but for the crane vector's step fraction, rounded down to
+    1/255 (its divisor, the step limit, does not fit a byte). A quarter of the memory.
+
     **Errors.** As the one-site env's, naming the copy and the crane: an action that is not
     an integer or outside ``0..8 + C - 1``, a wrong shape, a masked action with
     ``strict=True``, a call before ``reset()``.
@@ -82,20 +88,29 @@ class MotionVectorEnv(Copies):
         strict: bool = False,
         events: EventSpec | str | None = None,
         copy: bool = False,
+        obs_dtype: Any = np.float32,
     ):
         n = self._set_up_copies(num_envs, copy)
+        dtype = np.dtype(obs_dtype)
+        if dtype not in (np.float32, np.uint8):
+            raise ValueError(f"obs_dtype must be float32 or uint8, got {dtype}")
         self.reference = MultiCraneEnv(
             scenario, n_cranes, max_steps=max_steps, max_cycles=max_cycles, reward=reward,
             reward_mode=reward_mode, obs_format="flat", events=events,
         )  # fmt: skip
         self.scenario = self.reference.scenario
-        self.site = compile_motion_site(self.reference)
+        whole = dtype == np.uint8
+        self.site = compile_motion_site(self.reference, whole)
         self.n_cranes = self.site.n_cranes
         self.n_actions = self.reference.n_actions
         self.strict = bool(strict)
-        self.single_observation_space = self.reference.observation_space("crane_0")
+        box = self.reference.observation_space("crane_0")
+        self.obs_scale = obs_scale(self.reference, self.site) if whole else None
+        if whole:
+            box = spaces.Box(0, self.obs_scale.astype(np.uint8), box.shape, dtype)
+        self.single_observation_space = box
         self.single_action_space = spaces.Discrete(self.n_actions)
-        self.state, self.buffers = allocate(self.site, n)
+        self.state, self.buffers = allocate(self.site, n, dtype)
 
     # -- episodes ----------------------------------------------------------------------------
 
