@@ -17,12 +17,15 @@ from multicrane.benchmark.profiles import LEAN_ALGOS, STANDARD_SETTINGS, RunSpec
 # development machine (paper settings; the environment itself runs at 25,000+ steps/s in
 # every configuration, so the learner sets the pace).
 THROUGHPUT = {"dqn": 450, "double_dqn": 450, "a2c": 5000, "ppo": 3000, "maskable_ppo": 2500}
-# lean_ppo by the width of its first layer (net_arch[0]; a width not listed: the slowest),
-# end to end (rollouts, updates, checkpoints) in 1,000,000-step runs with another process on
-# the 2 cores: 64 (the default) 21,078 steps/s on E1S4 (multicrane bench --train: 33,772 for
-# the training loop alone, quiet machine); 256 (paper-budget's) 8,986 on E1S4, 9,286 on E2S1,
-# 7,482 on E3S1, 7,595 on E4S1.
-LEAN_THROUGHPUT = {64: 20000, 256: 7500}
+# lean_ppo by (the width of its first layer, copies, minibatch); a setting not listed: the
+# slowest. End to end (rollouts, updates, checkpoints) in 1,000,000-step runs with another
+# process on the 2 cores: the defaults (64, 256, 1024) 21,078 steps/s on E1S4 (multicrane
+# bench --train: 33,772 for the training loop alone, quiet machine); a 256-256 network 8,986 on
+# E1S4, 9,286 on E2S1, 7,482 on E3S1, 7,595 on E4S1; paper-budget's (64, 64, 256, shaped
+# with the path potential) 1.35x the 256-256 network's rate (learn() of 65,536 steps on E3S1,
+# three interleaved pairs, load 10-11: medians 7,760 and 5,743 steps per CPU second).
+LEAN_THROUGHPUT = {(64, 256, 1024): 20000, (256, 256, 1024): 7500, (64, 64, 256): 10000}
+LEAN_DEFAULTS = (64, 256, 1024)  # net_arch[0], copies, batch_size of default_hyperparameters
 # Greedy evaluation: seconds per environment step (model prediction + environment; lean_ppo's
 # measured 0.43 ms in that run, the exact planner's gap included), and the step limit of an
 # episode (an untrained policy runs to it).
@@ -60,14 +63,21 @@ def estimate_seconds(spec: RunSpec, done_steps: int = 0) -> float:
         train = left / STANDARD_THROUGHPUT[spec.algo]
         evaluation = _episodes(t, left) * limit * STANDARD_EVAL_STEP_SECONDS
     elif spec.algo in LEAN_ALGOS:
-        net = t["hyperparams"].get("policy_kwargs", {}).get("net_arch", [64])
-        train = left / LEAN_THROUGHPUT.get(net[0], min(LEAN_THROUGHPUT.values()))
+        train = left / LEAN_THROUGHPUT.get(_lean_setting(t), min(LEAN_THROUGHPUT.values()))
         evaluation = _episodes(t, left) * limit * LEAN_EVAL_STEP_SECONDS
     else:
         train = left / THROUGHPUT[spec.algo]
         points = (left // t["eval_every"] + 2) if t["eval_every"] else 1
         evaluation = points * t["eval_episodes"] * limit * EVAL_STEP_SECONDS
     return train + evaluation + RUN_OVERHEAD_SECONDS
+
+
+def _lean_setting(t: dict) -> tuple[int, int, int]:
+    """A lean PPO run's (first layer width, copies, minibatch), defaults filled in."""
+    width, copies, batch = LEAN_DEFAULTS
+    hp = t["hyperparams"]
+    net = hp.get("policy_kwargs", {}).get("net_arch", [width])
+    return net[0], t.get("n_envs") or copies, hp.get("batch_size", batch)
 
 
 def _episodes(t: dict, left: int) -> int:

@@ -46,9 +46,11 @@ for the vector motion env (``MotionVectorEnv``) on hall-4c with 4 cranes, joint 
 second under uniform random legal actions, beside the one-site ``parallel_env``; with
 ``--events LEVEL`` both motion envs play with site events of that level (docs/uncertainty.md).
 
-With ``--train`` it times training, rollouts and updates (``--paper``'s first configuration,
-else E1S1; one torch thread): SB3's MaskablePPO at the paper's settings for ``--steps`` steps
-and the lean PPO (``multicrane train --algo lean_ppo``) for ten times as many, in two
+With ``--train`` it times training, rollouts and updates (one torch thread), in the paper
+mode (``--paper``'s first configuration, else E1S1; SB3's MaskablePPO at the paper's
+settings) and in the multi-agent motion mode (hall-4c with 4 cranes, the multi-agent
+defaults and shaping; a step is one crane's decision): MaskablePPO for ``--steps`` steps and
+the lean PPO (``multicrane train --algo lean_ppo``) for ten times as many, in two
 interleaved rounds, and prints each one's steps per second of wall time and of the process's
 CPU time (the medians; on a shared machine the CPU figure is the steadier) and their ratios.
 
@@ -251,24 +253,36 @@ def run_vector_motion(args: argparse.Namespace) -> int:
     return 0
 
 
+TRAIN_MOTION = ("hall-4c", 4)  # --train's multi-agent motion mode: scenario, cranes
+
+
 def run_train(args: argparse.Namespace) -> int:
-    """Training throughput, the lean PPO beside MaskablePPO (see DESCRIPTION)."""
+    """Training throughput, the lean PPO beside MaskablePPO, in the paper mode and the
+    multi-agent motion mode (see DESCRIPTION)."""
     from multicrane.training.lean_ppo_bench import training_steps_per_second
 
-    config = (args.paper or ["E1S1"])[0]
+    scenario, cranes = TRAIN_MOTION
+    modes = {(args.paper or ["E1S1"])[0]: None, f"{scenario}-{cranes}c": TRAIN_MOTION}
     budgets = {"maskable_ppo": args.steps, "lean_ppo": 10 * args.steps}
-    rates: dict[str, list[tuple[float, float]]] = {name: [] for name in budgets}
+    rates = {(mode, name): [] for mode in modes for name in budgets}
     for _ in range(2):  # interleaved rounds
+        for mode, motion in modes.items():
+            config, cranes = motion or (mode, None)
+            for name, steps in budgets.items():
+                rates[mode, name].append(
+                    training_steps_per_second(name, config, steps, n_cranes=cranes)
+                )
+    median = {key: np.median(r, axis=0) for key, r in rates.items()}  # (wall, CPU)
+    print(f"{'mode':<10} {'algorithm':<13} {'steps':>9} {'steps/s':>10} {'steps/CPU-s':>12}")
+    for mode in modes:
         for name, steps in budgets.items():
-            rates[name].append(training_steps_per_second(name, config, steps))
-    median = {name: np.median(r, axis=0) for name, r in rates.items()}  # (wall, CPU)
-    print(f"{'config':<8} {'algorithm':<13} {'steps':>9} {'steps/s':>10} {'steps/CPU-s':>12}")
-    for name, steps in budgets.items():
-        wall, cpu = median[name]
-        print(f"{config:<8} {name:<13} {steps:>9,} {wall:>10,.0f} {cpu:>12,.0f}")
-    wall, cpu = median["lean_ppo"] / median["maskable_ppo"]
-    print(f"lean_ppo / maskable_ppo: {wall:.1f}x per wall second, {cpu:.1f}x per CPU second "
-          "(rollouts and updates, one torch thread)")  # fmt: skip
+            wall, cpu = median[mode, name]
+            print(f"{mode:<10} {name:<13} {steps:>9,} {wall:>10,.0f} {cpu:>12,.0f}")
+    for mode in modes:
+        wall, cpu = median[mode, "lean_ppo"] / median[mode, "maskable_ppo"]
+        print(f"{mode}: lean_ppo / maskable_ppo {wall:.1f}x per wall second, {cpu:.1f}x per "
+              "CPU second (rollouts and updates, one torch thread)")  # fmt: skip
+    print("motion mode: a step is one crane's decision (joint steps x cranes)")
     return 0
 
 

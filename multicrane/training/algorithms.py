@@ -11,7 +11,9 @@ the environment's blocked-move mask. The lean PPO (``lean_ppo``, ours, not an SB
 
 Multi-agent mode (parameter sharing, one row per crane): PPO and MaskablePPO with settings
 of our own (8 copies x 128 steps, 10 epochs, gamma 0.95), with the potential-based shaping
-of ``multicrane.training.shaping``: without it, PPO learns to wait forever.
+of ``multicrane.training.shaping``: without it, PPO learns to wait forever. The lean PPO
+(``lean_ppo``) runs there too, on the vector motion env, with the same shaping
+(``multicrane.training.lean_ppo_motion_env``).
 
 Every value can be overridden (``TrainConfig.hyperparams``); ``features`` (ours, not an SB3
 setting) picks the features extractor by name (``multicrane.training.grid_cnn``).
@@ -33,7 +35,7 @@ from stable_baselines3 import A2C, DQN, PPO
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from multicrane.training.grid_cnn import features_extractor
-from multicrane.training.lean_ppo import LeanPPO, default_hyperparameters
+from multicrane.training.lean_ppo import LeanPPO, default_hyperparameters, motion_hyperparameters
 
 
 class DoubleDQN(DQN):
@@ -161,6 +163,9 @@ MULTI_ALGORITHMS: dict[str, Algorithm] = {
             defaults=_MULTI_PPO,
             label="MaskablePPO (shared)",
         ),
+        # Ours: the lean PPO on the vector motion env, one row per crane (docs/training.md).
+        Algorithm("lean_ppo", LeanPPO, 32, masked=True, defaults=motion_hyperparameters(),
+                  label="lean PPO (shared)"),  # fmt: skip
     )
 }
 

@@ -1,9 +1,13 @@
-"""A lean PPO (cleanrl style) on the vector paper env: rollouts and updates in one process.
+"""A lean PPO (cleanrl style) on the vector envs: rollouts and updates in one process.
 
-``LeanPPO`` is the ``lean_ppo`` algorithm of ``multicrane train`` (docs/training.md): masked
-logits (``lean_ppo_net``), GAE (``lean_ppo_buffer``), the clipped objective with optional
-value clipping, advantage normalisation, an entropy bonus, gradient-norm clipping and a
-learning rate annealed linearly to 0 over the run's budget. It speaks the part of
+``LeanPPO`` is the ``lean_ppo`` algorithm of ``multicrane train`` (docs/training.md), in the
+paper mode (``lean_ppo_env``: a row per copy) and the multi-agent motion mode
+(``lean_ppo_motion_env``: one policy shared by the cranes, a row per crane of each copy; every
+row has its own reward, value and advantages, the env's same-step autoreset ends all the rows
+of a copy): masked logits (``lean_ppo_net``), GAE (``lean_ppo_buffer``), the clipped
+objective with optional value clipping, advantage normalisation, an entropy bonus,
+gradient-norm clipping and a learning rate annealed linearly to 0 over the run's budget. It
+speaks the part of
 stable-baselines3's interface that the trainer uses (``learn`` with a callback,
 ``num_timesteps``, ``save``/``load``, ``predict``, ``policy``, ``logger``,
 ``ep_info_buffer``), so ``multicrane.training.trainer.Run`` checkpoints, resumes, evaluates and
@@ -50,6 +54,12 @@ class Shapes:
         self.action_space = spaces.Discrete(n_actions)
 
 
+def motion_hyperparameters() -> dict[str, Any]:
+    """The multi-agent motion mode's defaults (the ``lean_ppo`` row of the multi-agent
+    table): the paper mode's, with the SB3 multi-agent discount 0.95 and a 128-128 network."""
+    return {**default_hyperparameters(), "gamma": 0.95, "policy_kwargs": {"net_arch": [128, 128]}}
+
+
 def default_hyperparameters() -> dict[str, Any]:
     """``LeanPPO``'s settings and their defaults (the ``lean_ppo`` algorithm's table)."""
     signature = inspect.signature(LeanPPO.__init__).parameters.items()
@@ -69,7 +79,8 @@ class _NoCallback:
 
 
 class LeanPPO:
-    """PPO on a ``LeanVecEnv`` (``env``; ``Shapes`` for a model that only acts). ``policy`` is
+    """PPO on a ``LeanVecEnv`` or ``LeanMotionEnv`` (``env``, ``num_envs`` rows; ``Shapes``
+    for a model that only acts). ``policy`` is
     accepted for the trainer's ``make_model`` (``"MlpPolicy"``); ``policy_kwargs``:
     ``net_arch`` (default ``[64, 64]``: the shared sparse layer, then one hidden layer per
     head) and the observation scale in ``features_extractor_kwargs`` (``obs_scale``)."""
@@ -168,13 +179,13 @@ class LeanPPO:
         callback = callback or _NoCallback()
         if self.tensorboard_log is not None:
             self.logger.open(Path(self.tensorboard_log) / tb_log_name)
-        if self.rollout is None:
-            s = self.settings
-            self.rollout = Rollout.allocate(s["n_steps"], self.n_envs, self.n_obs,
-                                            self.n_actions, self.device)  # fmt: skip
         if not self.started:
             self.env.reset(seed=self.seed)
             self.started = True
+        if self.rollout is None:  # observations stored as the env gives them (bytes, floats)
+            s, obs_dtype = self.settings, th.from_numpy(self.env.current()[0][:0]).dtype
+            self.rollout = Rollout.allocate(s["n_steps"], self.n_envs, self.n_obs,
+                                            self.n_actions, self.device, obs_dtype)  # fmt: skip
         callback.init_callback(self)
         callback.on_training_start(locals(), globals())
         try:
@@ -291,16 +302,25 @@ class LeanPPO:
         """SB3's ``predict``: ``(actions, None)`` for one observation or a batch; masked
         actions are never chosen (``action_masks``: non-zero where allowed)."""
         single = np.ndim(observation) == 1
+        logits = self._logits(observation, action_masks)
+        actions = logits.argmax(-1) if deterministic else sample(logits, self.generator)
+        actions = actions.cpu().numpy()
+        return (actions[0] if single else actions), state
+
+    @th.no_grad()
+    def action_scores(self, observation, action_masks: Sequence | np.ndarray) -> np.ndarray:
+        """The masked logits ``[n, A]`` of a batch of observations (``MASKED_LOGIT`` where
+        masked): what a greedy multi-agent policy compares across cranes (``model_policy``)."""
+        return self._logits(observation, action_masks).cpu().numpy()
+
+    def _logits(self, observation, action_masks) -> th.Tensor:
         obs = self._sparse(np.asarray(observation).reshape(-1, self.n_obs))
         n = obs.cols.shape[0]
         if action_masks is None:
             masks = th.ones(n, self.n_actions, dtype=th.int8, device=self.device)
         else:
             masks = self._tensor(np.asarray(action_masks, dtype=np.int8).reshape(n, -1))
-        logits, _ = self.policy.logits_and_value(obs, masks)
-        actions = logits.argmax(-1) if deterministic else sample(logits, self.generator)
-        actions = actions.cpu().numpy()
-        return (actions[0] if single else actions), state
+        return self.policy.logits_and_value(obs, masks)[0]
 
     # -- saving ----------------------------------------------------------------------------
 

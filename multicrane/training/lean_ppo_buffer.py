@@ -1,6 +1,7 @@
 """The lean PPO's rollout: preallocated tensors for ``n_steps`` x ``B`` steps, and GAE.
 
-One rollout is ``n_steps`` steps of every copy (``[T, B]`` tensors; observations as bytes);
+One rollout is ``n_steps`` steps of every row (``[T, B]`` tensors: a row is a paper copy, or
+one crane of a motion copy, so GAE runs per crane; observations as the env gives them);
 ``compute_gae`` turns its rewards, values and episode ends into advantages and returns
 (Schulman et al. 2016). A copy whose episode ended by truncation has already had
 ``gamma * V(final_obs)`` added to its reward (the learner does it when it steps), so an
@@ -35,7 +36,7 @@ def compute_gae(rewards: th.Tensor, values: th.Tensor, dones: th.Tensor, last_va
 class Rollout:
     """``n_steps`` x ``n_envs`` steps on ``device``: what the update needs of each."""
 
-    obs: th.Tensor  # [T, B, D] uint8, on the CPU (``lean_ppo_net.sparse`` reads it)
+    obs: th.Tensor  # [T, B, D] as the env gives them, on the CPU (``lean_ppo_net.sparse``)
     masks: th.Tensor  # [T, B, A] int8
     actions: th.Tensor  # [T, B] int64
     log_probs: th.Tensor  # [T, B]
@@ -44,13 +45,13 @@ class Rollout:
     dones: th.Tensor  # [T, B] 1.0 where the episode ended with the step
 
     @classmethod
-    def allocate(cls, n_steps: int, n_envs: int, n_obs: int, n_actions: int, device
-                 ) -> Rollout:  # fmt: skip
+    def allocate(cls, n_steps: int, n_envs: int, n_obs: int, n_actions: int, device,
+                 obs_dtype: th.dtype = th.uint8) -> Rollout:  # fmt: skip
         def zeros(*shape, dtype=th.float32):
             return th.zeros(shape, dtype=dtype, device=device)
 
         return cls(
-            obs=th.zeros((n_steps, n_envs, n_obs), dtype=th.uint8),  # on the CPU: compacted there
+            obs=th.zeros((n_steps, n_envs, n_obs), dtype=obs_dtype),  # CPU: compacted there
             masks=zeros(n_steps, n_envs, n_actions, dtype=th.int8),
             actions=zeros(n_steps, n_envs, dtype=th.int64),
             log_probs=zeros(n_steps, n_envs),

@@ -159,6 +159,8 @@ class SharedModelPolicy:
     def _scores(self, batch: np.ndarray, masks: np.ndarray) -> np.ndarray:
         import torch as th
 
+        if hasattr(self.model, "action_scores"):  # the lean PPO (multicrane.training.lean_ppo)
+            return np.where(masks, self.model.action_scores(batch, masks), BLOCKED)
         policy = self.model.policy
         with th.no_grad():
             logits = policy.get_distribution(policy.obs_to_tensor(batch)[0]).distribution.logits

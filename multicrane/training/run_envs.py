@@ -55,10 +55,14 @@ def make_vec_env(cfg: TrainConfig, algo: Algorithm, params: dict[str, Any]):
     if cfg.policy == "set":
         return make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma)
     n = cfg.n_envs or algo.n_envs
+    if algo.name == "lean_ppo" and not cfg.paper:  # the vector motion env, a row per crane
+        from multicrane.training.lean_ppo_motion_env import lean_motion_env
+
+        return lean_motion_env(cfg, n, gamma)
     if algo.name == "lean_ppo":  # the vector paper env (multicrane.training.lean_ppo_env)
         from multicrane.training.lean_ppo_env import lean_vec_env
 
-        return lean_vec_env(cfg, algo, n)
+        return lean_vec_env(cfg, algo, n, gamma)
     if cfg.paper:  # shaping: the learner's reward only; Monitor records the paper's
         w, kind = cfg.shaping_weight, cfg.potential
         shape = (lambda e: ShapedPaperEnv(e, w, gamma, kind)) if w else (lambda e: e)

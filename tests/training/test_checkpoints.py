@@ -38,12 +38,7 @@ def cfg(**changes) -> TrainConfig:
     return TrainConfig(**kw)
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    previous = th.get_num_threads()
-    th.set_num_threads(1)
-    yield
-    th.set_num_threads(previous)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")

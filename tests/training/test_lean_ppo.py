@@ -21,12 +21,7 @@ from multicrane.training.model_policy import load_run  # noqa: E402
 SMALL = {"n_steps": 8, "batch_size": 32, "n_epochs": 2}  # 8 copies: 64 steps per update
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    previous = th.get_num_threads()
-    th.set_num_threads(1)
-    yield
-    th.set_num_threads(previous)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def quiet(*_args) -> None:
@@ -226,12 +221,21 @@ def cfg(**changes) -> TrainConfig:
     return TrainConfig(**{**kw, **changes})
 
 
-def test_resume_equals_an_uninterrupted_run(tmp_path):
-    whole = train(cfg(), tmp_path / "whole", log=quiet)
-    assert whole["steps"] == 256 and whole["algorithm"] == "lean PPO"
-    assert train(cfg(), tmp_path / "cut", stop_at=100, log=quiet) is None
+MOTION = dict(scenario="e2s2", paper=False, n_cranes=2, n_envs=4, max_steps=40,
+              hyperparams={**SMALL, "policy_kwargs": {"net_arch": [32, 32]}})  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("mode", "algorithm"), [("paper", "lean PPO"), ("motion", "lean PPO (shared)")]
+)
+def test_resume_equals_an_uninterrupted_run(tmp_path, mode, algorithm):
+    """Paper mode, and the motion mode's shared policy (4 copies x 2 cranes as 8 rows)."""
+    config = cfg() if mode == "paper" else cfg(**MOTION)
+    whole = train(config, tmp_path / "whole", log=quiet)
+    assert whole["steps"] == 256 and whole["algorithm"] == algorithm
+    assert train(config, tmp_path / "cut", stop_at=100, log=quiet) is None
     assert int((tmp_path / "cut" / "checkpoint" / "steps.txt").read_text()) == 128
-    resumed = train(cfg(), tmp_path / "cut", log=quiet)
+    resumed = train(config, tmp_path / "cut", log=quiet)
     assert resumed["sessions"] == 2
     a, _ = load_run(tmp_path / "whole")
     b, _ = load_run(tmp_path / "cut")
@@ -257,8 +261,8 @@ def test_train_and_evaluate_commands(tmp_path, capsys):
 
 
 def test_refused_settings(tmp_path):
-    with pytest.raises(ValueError, match="lean_ppo"):
-        train(cfg(shaping=1.0), tmp_path / "shaped", log=quiet)
+    with pytest.raises(ValueError, match="shaping"):
+        train(cfg(shaping=-1.0), tmp_path / "shaped", log=quiet)
     with pytest.raises(ValueError, match="batch_size"):
         make_model(LeanVecEnv("E1S1", 2, True), batch_size=100).learn(16)
 
