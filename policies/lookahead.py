@@ -39,10 +39,13 @@ class TaskLookahead:
 
     ``candidates``: how many of the first idle crane's allowed tasks (shortest static path
     first) are tried besides the planner's choice and waiting; ``max_searches`` and ``rank``
-    go to the prioritized planner that proposes and finishes."""
+    go to the prioritized planner that proposes and finishes. ``base``: another base policy
+    in its place, ``base(env) -> policy(observations) -> joint action`` (made for each copy
+    and for the round itself, whose observations may hold only the masks), e.g. a learned
+    policy (expert iteration, ``multicrane.training.expert_iteration``)."""
 
     def __init__(self, env, seed=None, candidates: int = 4, max_searches: int = 8,
-                 rank: str = "list"):  # fmt: skip
+                 rank: str = "list", base=None):  # fmt: skip
         self.env, _ = _book(env)
         if self.env.sim.schedule is not None or self.env.observation_layout.events is not None:
             raise ValueError(
@@ -54,11 +57,12 @@ class TaskLookahead:
         self.seed = seed
         self.candidates = candidates
         self.options = {"max_searches": max_searches, "rank": rank}
+        self.base = base or (lambda env: TaskPrioritized(env, **self.options))
         self.rollouts = 0  # finished copies so far (its cost)
 
     def __call__(self, observations) -> dict:
         env = self.env
-        base = TaskPrioritized(env, **self.options)(observations)
+        base = self.base(env)(observations)
         joints = self._candidates(base)
         if len(joints) == 1:
             return base
@@ -97,11 +101,11 @@ class TaskLookahead:
         return copy.deepcopy(env, {id(x): x for x in shared})
 
     def _finish(self, joint: dict) -> int:
-        """The makespan of playing ``joint`` on a copy, then the prioritized planner."""
+        """The makespan of playing ``joint`` on a copy, then the base policy."""
         self.rollouts += 1
         env = self._copy()
         first = env.possible_agents[0]
-        planner = TaskPrioritized(env, **self.options)
+        planner = self.base(env)
         observations = None
         while True:
             observations, _, terminations, truncations, _ = env.step(joint)
@@ -110,3 +114,19 @@ class TaskLookahead:
             if truncations[first]:
                 return UNFINISHED
             joint = planner(observations)
+
+
+class LookaheadTeacher:
+    """The look-ahead planner as a teacher factory (``make_teacher(env, seed)``) for
+    ``multicrane train --imitate lookahead``; ``guided(base)``: the same search over another
+    base policy (``TaskLookahead``'s ``base``), which expert iteration builds from the
+    learned policy each round."""
+
+    def __init__(self, base=None, **options):
+        self.base, self.options = base, options
+
+    def __call__(self, env, seed=None) -> TaskLookahead:
+        return TaskLookahead(env, seed, base=self.base, **self.options)
+
+    def guided(self, base) -> LookaheadTeacher:
+        return LookaheadTeacher(base, **self.options)

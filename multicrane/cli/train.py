@@ -17,6 +17,7 @@ for cranes (needs the 'train' extra).
     multicrane train --scenario e2s2 --cranes 2 --algo maskable_ppo --steps 100000
     multicrane train --paper E1S1 --algo ppo --set learning_rate=1e-4 --set n_epochs=10
     multicrane train --paper E1S1 --algo lean_ppo --steps 1000000 [--device cuda]
+    multicrane train --scenario hall-4c --cranes 4 --algo lean_ppo --steps 1000000
     multicrane train --backend rllib --scenario e3s2 --cranes 2 --steps 20000 [--address auto]
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
     multicrane train --scenario set:train --curriculum grow --steps 300000
@@ -41,9 +42,13 @@ options. See multicrane.cli.train_rllib.
 decision levels, either backend); it is stored in config.json, so a resume, multicrane
 evaluate and multicrane plan --policy RUN_DIR play the same level unless told otherwise.
 
---algo lean_ppo (paper mode) is our own PPO on the vector env (multicrane.training.lean_ppo,
-docs/training.md): 256 copies by default, tens of thousands of steps per second; --device
-cuda trains it on a GPU (stored as its train_device setting).
+--algo lean_ppo is our own PPO on the vector envs (multicrane.training.lean_ppo,
+docs/training.md): paper mode, 256 copies by default, tens of thousands of steps per second,
+--shaping, --potential and --shaping-gamma as for the SB3 learners;
+multi-agent motion mode, one policy shared by the cranes (a row per crane), 32 copies by
+default, with --events, --reward and --shaping as for maskable_ppo (not --auto, task
+decisions, --imitate or the set policy); --device cuda trains it on a GPU (stored as its
+train_device setting).
 """
 
 
@@ -55,7 +60,7 @@ def register(sub) -> None:
         "--algo",
         default=None,
         help="paper: dqn, double_dqn, a2c, ppo, maskable_ppo, lean_ppo (default ppo); "
-        "multi-agent: ppo, maskable_ppo (default maskable_ppo)",
+        "multi-agent: ppo, maskable_ppo, lean_ppo (default maskable_ppo)",
     )
     p.add_argument("--steps", type=int, default=100_000, help="budget in SB3 timesteps")
     p.add_argument("--seed", type=int, default=0)
@@ -101,6 +106,15 @@ def register(sub) -> None:
     p.add_argument("--imitate-demos", default=None, metavar="FILE.npz",
                    help="with --imitate: keep the teacher's episodes in this file (read if it "
                    "holds the same setting, else written): seeds can share them")
+    p.add_argument("--dagger", type=int, default=0, metavar="ROUNDS",
+                   help="with --imitate (set policy): DAgger rounds after it, the teacher "
+                   "labelling the policy's own episodes (default 0; docs/training.md)")
+    p.add_argument("--expert-iteration", type=int, default=0, metavar="ROUNDS",
+                   help="with --imitate lookahead (set policy): rounds of the look-ahead search "
+                   "over the policy, distilled into it (default 0; docs/training.md)")
+    p.add_argument("--round-episodes", type=int, default=32,
+                   help="with --dagger or --expert-iteration: episodes labelled per round "
+                   "(default 32)")
     p.add_argument("--keep-best", action="store_true",
                    help="keep the model of the curve point with the best return on validation "
                    "episodes (reset seeds 2,000,000...; needs --eval-every)")  # fmt: skip
@@ -177,6 +191,9 @@ def build_config(args: argparse.Namespace):
         imitate_episodes=args.imitate_episodes,
         imitate_epochs=args.imitate_epochs,
         imitate_demos=args.imitate_demos,
+        dagger=args.dagger,
+        expert_iteration=args.expert_iteration,
+        round_episodes=args.round_episodes,
         keep_best=args.keep_best,
     )
 
@@ -187,6 +204,10 @@ def teacher_of(cfg):
         return None
     import policies
 
+    if cfg.expert_iteration and cfg.imitate == "lookahead":  # a search it can guide
+        from policies.lookahead import LookaheadTeacher
+
+        return LookaheadTeacher()
     return policies.factory(cfg.imitate, paper=False)
 
 

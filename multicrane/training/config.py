@@ -62,7 +62,12 @@ class TrainConfig:
     (``multicrane.training.imitation``): ``imitate_episodes`` teacher episodes,
     ``imitate_epochs`` passes over them; ``imitate_demos``: a ``.npz`` file that keeps them
     (read when it exists and was made for the same setting, else written), so that several
-    seeds share one set of teacher episodes. ``keep_best``: at each curve point, also
+    seeds share one set of teacher episodes. ``dagger`` (set policy, with ``imitate``): that
+    many DAgger rounds after the imitation, each labelling ``round_episodes`` episodes of
+    the policy with the teacher's choices (``multicrane.training.dagger``);
+    ``expert_iteration``: that many rounds after those, each distilling ``round_episodes``
+    episodes of the teacher's search over the policy (``multicrane.training.expert_iteration``;
+    a search teacher such as ``"lookahead"``). ``keep_best``: at each curve point, also
     play ``eval_episodes`` validation episodes (reset seeds 2,000,000 ...; with a curriculum,
     one on each of as many train sites outside its pools) and keep the model with the best
     validation return; the run's final model is that one (early stopping; the curve shows
@@ -99,6 +104,9 @@ class TrainConfig:
     imitate_episodes: int = 64
     imitate_epochs: int = 10
     imitate_demos: str | None = None
+    dagger: int = 0
+    expert_iteration: int = 0
+    round_episodes: int = 32
     keep_best: bool = False
 
     def __post_init__(self) -> None:
@@ -119,11 +127,12 @@ class TrainConfig:
                 f"decisions={self.decisions!r} is a multi-agent option, not paper mode"
             )
         for name in ("total_steps", "eval_episodes", "torch_threads", "imitate_episodes",
-                     "imitate_epochs"):  # fmt: skip
+                     "imitate_epochs", "round_episodes"):  # fmt: skip
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                 raise ConfigError(f"{name}={value!r}: must be a positive integer")
-        for name in ("seed", "eval_every", "checkpoint_every"):
+        for name in ("seed", "eval_every", "checkpoint_every", "dagger",
+                     "expert_iteration"):  # fmt: skip
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 0:
                 raise ConfigError(f"{name}={value!r}: must be a non-negative integer")
@@ -222,8 +231,9 @@ class TrainConfig:
 
     def _check_imitation(self) -> None:
         if self.imitate is None:
-            if self.imitate_demos is not None:
-                raise ConfigError(f"imitate_demos={self.imitate_demos!r}: needs imitate")
+            for name in ("imitate_demos", "dagger", "expert_iteration"):
+                if getattr(self, name):
+                    raise ConfigError(f"{name}={getattr(self, name)!r}: needs imitate")
             return
         if not isinstance(self.imitate, str) or not self.imitate:
             raise ConfigError(f"imitate={self.imitate!r}: must be a teacher policy's name")
@@ -231,6 +241,9 @@ class TrainConfig:
             raise ConfigError(
                 f"imitate={self.imitate!r}: needs the multi-agent mode and algo='maskable_ppo'"
             )
+        for name in ("dagger", "expert_iteration"):
+            if getattr(self, name) and self.policy != "set":
+                raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
 
     def _check_events(self) -> None:
         if self.events is None:

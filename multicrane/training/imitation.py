@@ -14,9 +14,7 @@ demonstrations).
   learner's (shaped) reward.
 - ``save`` / ``load`` keep them in a ``.npz`` file with what they were made for, so that
   several training seeds can share one (expensive) set of teacher episodes.
-- ``imitate`` is the step of a training run (``TrainConfig.imitate``): demonstrations on
-  copies of the run's environments that draw other reset seeds than its training copies
-  (or read from ``imitate_demos``), then ``clone``, with a summary for ``result.json``.
+- ``multicrane.training.teaching.imitate`` is the step of a training run that uses them.
 - ``clone`` fits the policy to them: cross-entropy of the teacher's actions under the masked
   logits (the actor) plus the squared error of the value on the returns, scaled by their
   variance (the critic, so that PPO's first updates do not start from a random baseline).
@@ -33,7 +31,6 @@ from __future__ import annotations
 
 import io
 import json
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -109,37 +106,46 @@ def demonstration_seed(run_seed: int) -> int:
     return int(np.random.SeedSequence([int(run_seed), DEMO_STREAM]).generate_state(1)[0])
 
 
-def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float) -> Demonstrations:
+def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
+                make_learner: Callable | None = None) -> Demonstrations:  # fmt: skip
     """``episodes`` finished teacher episodes on ``venv``'s copies (a ``CraneVecEnv`` or
     ``SetVecEnv``, seeded by the caller); episodes still running when the last one ends are
-    left out."""
+    left out. With ``make_learner(env, copy) -> act`` (made per episode; ``act(rows, masks)
+    -> actions`` for the copy's real crane rows) the learner's actions are played and the
+    teacher only labels the states they lead to (DAgger, ``multicrane.training.dagger``);
+    the returns are then the learner's."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
     rows = venv.n_agents  # SB3 rows per copy (a SetVecEnv's spare rows included)
     obs = venv.reset()
     teachers: list = [None] * venv.n_copies
+    learners: list = [None] * venv.n_copies
     log: list[tuple] = []  # per round: obs, masks, actions, rewards, dones, real rows
     makespans: list[int | None] = []
     while len(makespans) < episodes:
         masks = venv.action_masks()
         actions = np.zeros(venv.num_envs, dtype=np.int64)
+        played = actions if make_learner is None else np.zeros_like(actions)
         real = np.zeros(venv.num_envs, dtype=bool)
         for c, env in enumerate(venv.envs):
             if teachers[c] is None:
                 teachers[c] = make_teacher(env, None)
+                learners[c] = make_learner and make_learner(env, c)
             joint = teachers[c]({a: {"action_mask": m} for a, m in env.action_masks().items()})
             block = slice(c * rows, c * rows + len(env.possible_agents))
             actions[block] = [joint[agent] for agent in env.possible_agents]
             real[block] = True
+            if learners[c] is not None:  # before the labels' exclusive masks change ``masks``
+                played[block] = learners[c](obs[block], masks[block])
             _exclusive(env, masks, actions, block)
-        venv.step_async(actions)
+        venv.step_async(played)
         after, rewards, dones, infos = venv.step_wait()
         log.append((obs, masks, actions, rewards, dones, real))
         for c in range(venv.n_copies):
             if dones[c * rows]:  # the copy's episode ended (and the copy was reset)
                 info = infos[c * rows]
                 makespans.append(info["episode"]["l"] if info["is_success"] else None)
-                teachers[c] = None
+                teachers[c] = learners[c] = None
         obs = after
     return _rows(log, gamma, makespans[:episodes])
 
@@ -235,57 +241,3 @@ def agreement(policy, demos: Demonstrations, batch_size: int = 1024) -> float:
             greedy = dist.distribution.probs.argmax(-1).numpy()
             same += int((greedy == demos.actions[idx]).sum())
     return same / len(rows)
-
-
-def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dict:
-    """The imitation step of a fresh training run (``cfg`` a ``TrainConfig`` with
-    ``imitate``; ``params`` its learner settings): fit ``policy`` and return the summary."""
-    from multicrane.training.algorithms import algorithm
-    from multicrane.training.run_envs import make_vec_env, shaping_gamma
-    from multicrane.training.set_training import SET_COPIES, make_set_vec_env
-
-    start = time.perf_counter()
-    gamma = shaping_gamma(cfg, params)
-    if cfg.policy == "set":  # in this process: the teacher reads the copies' sites
-        venv = make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma, workers=1)
-    else:
-        venv = make_vec_env(cfg, algorithm(cfg.algo, cfg.paper), params)
-    seed = demonstration_seed(cfg.seed)
-    limits = venv.limits.to_dict() if cfg.policy == "set" else None
-    meta = {"teacher": cfg.imitate, "scenario": cfg.scenario, "cranes": cfg.n_cranes,
-            "decisions": cfg.decisions, "curriculum": cfg.curriculum, "limits": limits,
-            "episodes": cfg.imitate_episodes, "reward": cfg.reward, "events": cfg.events,
-            "max_steps": cfg.max_steps, "shaping": cfg.shaping_weight, "shaping_gamma": gamma,
-            "gamma": params["gamma"], "seed": seed, "claims": "exclusive"}  # fmt: skip
-    path = cfg.imitate_demos
-    if path is not None and Path(path).exists():
-        demos = load(path, meta)
-        log(f"{cfg.name}: demonstrations from {path}")
-    else:
-        venv.seed(seed)
-        demos = demonstrate(venv, make_teacher, cfg.imitate_episodes, params["gamma"])
-        if path is not None:
-            save(demos, path, meta)
-    venv.close()
-    collected = time.perf_counter() - start
-    history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed)
-    finished = [m for m in demos.makespans if m is not None]
-    summary = {
-        "teacher": cfg.imitate,
-        "demonstrations": path,
-        "episodes": len(demos.makespans),
-        "teacher_makespan_mean": float(np.mean(finished)) if finished else None,
-        "teacher_finished": len(finished),
-        "rows": len(demos),
-        "decision_rows": int(demos.decisions.sum()),
-        "history": history,
-        "agreement": history[-1]["agreement"],
-        "collect_seconds": round(collected, 3),
-        "seconds": round(time.perf_counter() - start, 3),
-    }
-    log(
-        f"{cfg.name}: imitated {cfg.imitate} ({summary['episodes']} episodes, "
-        f"{summary['decision_rows']} decisions; greedy agreement "
-        f"{summary['agreement']:.1%}) in {summary['seconds']:.0f} s"
-    )
-    return summary

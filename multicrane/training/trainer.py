@@ -274,7 +274,7 @@ class Run:
                 "sessions": 1,
             }
             if self.cfg.imitate is not None:
-                from multicrane.training.imitation import imitate
+                from multicrane.training.teaching import imitate
 
                 self.progress["imitation"] = imitate(
                     self.cfg, self.params, self.model.policy, self.teacher, self.log

@@ -1,0 +1,76 @@
+"""The teaching step of a training run: imitation of a teacher, then its improvement rounds.
+
+``imitate`` runs when a fresh run has ``TrainConfig.imitate``: demonstrations on copies of
+the run's environments that draw other reset seeds than its training copies (or read from
+``imitate_demos``), then ``imitation.clone``; then ``dagger`` DAgger rounds and
+``expert_iteration`` rounds (``multicrane.training.dagger``), if asked for. It returns a
+summary for ``result.json``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from multicrane.training.dagger import improve
+from multicrane.training.imitation import clone, demonstrate, demonstration_seed, load, save
+
+
+def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dict:
+    """The imitation step of a fresh training run (``cfg`` a ``TrainConfig`` with
+    ``imitate``; ``params`` its learner settings): fit ``policy`` and return the summary."""
+    from multicrane.training.algorithms import algorithm
+    from multicrane.training.run_envs import make_vec_env, shaping_gamma
+    from multicrane.training.set_training import SET_COPIES, make_set_vec_env
+
+    start = time.perf_counter()
+    gamma = shaping_gamma(cfg, params)
+    if cfg.policy == "set":  # in this process: the teacher reads the copies' sites
+        venv = make_set_vec_env(cfg, cfg.n_envs or SET_COPIES, gamma, workers=1)
+    else:
+        venv = make_vec_env(cfg, algorithm(cfg.algo, cfg.paper), params)
+    seed = demonstration_seed(cfg.seed)
+    limits = venv.limits.to_dict() if cfg.policy == "set" else None
+    meta = {"teacher": cfg.imitate, "scenario": cfg.scenario, "cranes": cfg.n_cranes,
+            "decisions": cfg.decisions, "curriculum": cfg.curriculum, "limits": limits,
+            "episodes": cfg.imitate_episodes, "reward": cfg.reward, "events": cfg.events,
+            "max_steps": cfg.max_steps, "shaping": cfg.shaping_weight, "shaping_gamma": gamma,
+            "gamma": params["gamma"], "seed": seed, "claims": "exclusive"}  # fmt: skip
+    path = cfg.imitate_demos
+    if path is not None and Path(path).exists():
+        demos = load(path, meta)
+        log(f"{cfg.name}: demonstrations from {path}")
+    else:
+        venv.seed(seed)
+        demos = demonstrate(venv, make_teacher, cfg.imitate_episodes, params["gamma"])
+        if path is not None:
+            save(demos, path, meta)
+    venv.close()
+    collected = time.perf_counter() - start
+    history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed)
+    finished = [m for m in demos.makespans if m is not None]
+    summary = {
+        "teacher": cfg.imitate,
+        "demonstrations": path,
+        "episodes": len(demos.makespans),
+        "teacher_makespan_mean": float(np.mean(finished)) if finished else None,
+        "teacher_finished": len(finished),
+        "rows": len(demos),
+        "decision_rows": int(demos.decisions.sum()),
+        "history": history,
+        "agreement": history[-1]["agreement"],
+        "collect_seconds": round(collected, 3),
+        "seconds": round(time.perf_counter() - start, 3),
+    }
+    log(
+        f"{cfg.name}: imitated {cfg.imitate} ({summary['episodes']} episodes, "
+        f"{summary['decision_rows']} decisions; greedy agreement "
+        f"{summary['agreement']:.1%}) in {summary['seconds']:.0f} s"
+    )
+    if cfg.dagger or cfg.expert_iteration:
+        summary["rounds"] = improve(cfg, params, policy, make_teacher, demos, meta, log)
+        summary["seconds"] = round(time.perf_counter() - start, 3)
+    return summary
