@@ -91,7 +91,6 @@ def evaluate(args: argparse.Namespace) -> int:
     from multicrane.suite.manifest import read_manifest
     from multicrane.suite.page import read_best
     from multicrane.suite.play import play_track
-    from multicrane.suite.results import results_table, write_results
 
     try:
         manifest = read_manifest(args.version)
@@ -105,11 +104,8 @@ def evaluate(args: argparse.Namespace) -> int:
         return error(exc)
     slug = "".join(c if c.isalnum() or c in "-_" else "-" for c in Path(args.policy).name)
     out = args.out or Path(f"suite-{manifest.version}-{args.track}-{slug}.json")
-    write_results(out, results)
-    print(f"{label} ({decisions}) on {manifest.version} track {args.track}:")
-    print(results_table(results))
-    print(f"wrote {out}")
-    return 0
+    return _write_and_show(out, results, f"{label} ({decisions}) on {manifest.version} track "
+                           f"{args.track}")  # fmt: skip
 
 
 def verify(args: argparse.Namespace) -> int:
@@ -196,7 +192,6 @@ def bounds(args: argparse.Namespace) -> int:
 def improve(args: argparse.Namespace) -> int:
     from multicrane.suite.lns import LABEL, improve_track
     from multicrane.suite.manifest import SuiteError, read_manifest
-    from multicrane.suite.results import results_table, write_results
 
     if not args.seconds > 0:
         return error(f"--seconds must be positive, got {args.seconds}")
@@ -211,8 +206,16 @@ def improve(args: argparse.Namespace) -> int:
     except SuiteError as exc:
         return error(exc)
     out = args.out or Path(f"suite-{manifest.version}-{args.track}-{LABEL}.json")
+    return _write_and_show(out, results, f"{LABEL} on {manifest.version} track {args.track} "
+                           f"({args.seconds:g} s per instance)")  # fmt: skip
+
+
+def _write_and_show(out: Path, results: dict, heading: str) -> int:
+    """Write a results file and print its table under ``heading``."""
+    from multicrane.suite.results import results_table, write_results
+
     write_results(out, results)
-    print(f"{LABEL} on {manifest.version} track {args.track} ({args.seconds:g} s per instance):")
+    print(f"{heading}:")
     print(results_table(results))
     print(f"wrote {out}")
     return 0

@@ -91,10 +91,6 @@ class LeanVecEnv:
 def lean_vec_env(cfg, algo, n_envs: int, gamma: float) -> LeanVecEnv:
     """The copies a ``TrainConfig`` of the ``lean_ppo`` algorithm trains on (paper mode),
     shaped as ``cfg`` asks with the shaping discount ``gamma``."""
-    from multicrane.training.config import ConfigError
-
-    if not cfg.paper:
-        raise ConfigError("algo='lean_ppo': the paper mode only (--paper CONFIG) for now")
     mask = algo.masked if cfg.mask_blocked_moves is None else cfg.mask_blocked_moves
     w = cfg.shaping_weight
     return LeanVecEnv(cfg.scenario, n_envs, mask, (w, gamma, cfg.potential) if w else None)
