@@ -29,8 +29,10 @@ def test_paper_budget_runs_lean_ppo_everywhere_and_sb3_on_env1_env2():
     for spec in runs:
         t = spec.train
         assert t["total_steps"] == 1_000_000 and t["paper"] is True and t["final_episodes"] == 20
-        if spec.algo == "lean_ppo":  # ours: 64 copies, minibatch 256, the shaped reward
-            assert t["hyperparams"] == {"batch_size": 256} and t["n_envs"] == 64
+        if spec.algo == "lean_ppo":  # ours: 64 copies, minibatch 256, 256-256, shaped reward
+            wide = {"net_arch": [256, 256]}
+            assert t["hyperparams"] == {"batch_size": 256, "policy_kwargs": wide}
+            assert t["n_envs"] == 64
             assert (t["shaping"], t["potential"], t["shaping_gamma"]) == (1.0, "path", 1.0)
         else:  # the paper's settings and reward
             assert t["hyperparams"] == {} and t["n_envs"] is None and t["shaping"] is None
@@ -40,12 +42,16 @@ def test_paper_budget_runs_lean_ppo_everywhere_and_sb3_on_env1_env2():
     assert sweep.to_dict()["algo_configs"] == {a: list(ENV1_ENV2) for a in PAPER_ALGOS}
 
 
-def test_paper_budget_estimate_lean_ppo_within_two_hours_sb3_the_long_pole():
+def test_paper_budget_estimate_lean_ppo_under_three_hours_sb3_the_long_pole():
     runs = make_sweep("paper-budget").runs()
     lean = [r for r in runs if r.algo == "lean_ppo"]
-    assert estimate_wall(lean, workers=2) < 2 * 3600  # issue 32's target for its 80 runs
-    # a lean PPO run: 1,000,000 steps at ~10,000 steps/s, plus 64 evaluation episodes
-    assert 100 < estimate_seconds(lean[0]) < 110 < estimate_seconds(lean[-1]) < 125
+    # issue 32's target for its 80 runs is 2 hours: the 256-256 network (E4S3's fix) misses it
+    assert 2 * 3600 < estimate_wall(lean, workers=2) < 3 * 3600
+    # a lean PPO run: 1,000,000 steps at ~4,100 steps/s, plus 64 evaluation episodes
+    assert 240 < estimate_seconds(lean[0]) < 255 < estimate_seconds(lean[-1]) < 270
+    narrow = {"batch_size": 256}  # the 64-64 network: ~10,000 steps/s
+    narrow = replace(lean[0], train={**lean[0].train, "hyperparams": narrow})
+    assert 100 < estimate_seconds(narrow) < 110
     default = replace(lean[0], train={**lean[0].train, "hyperparams": {}, "n_envs": None})
     assert 50 < estimate_seconds(default) < 60  # the defaults: ~20,000 steps/s
     wide = {"policy_kwargs": {"net_arch": [256, 256]}}
