@@ -43,8 +43,10 @@ buffers per copy, and the seconds a fresh process needs to its first step, with 
 numba cache (the compile) and with the cache the first left. Configurations: ``--paper``'s,
 else E1S1 and E4S1; each figure is the median of three interleaved rounds. Then the same
 for the vector motion env (``MotionVectorEnv``) on hall-4c with 4 cranes, joint steps per
-second under uniform random legal actions, beside the one-site ``parallel_env``; with
-``--events LEVEL`` both motion envs play with site events of that level (docs/uncertainty.md).
+second under uniform random legal actions, beside the one-site ``parallel_env``, with float32
+observations (``vector``) and with ``obs_dtype=np.uint8`` (``vector-u8``: a quarter of the
+observation memory; the kernels compile once more for it); with ``--events LEVEL`` both motion
+envs play with site events of that level (docs/uncertainty.md).
 
 With ``--train`` it times training, rollouts and updates (one torch thread), in the paper
 mode (``--paper``'s first configuration, else E1S1; SB3's MaskablePPO at the paper's
@@ -234,19 +236,23 @@ def run_vector_motion(args: argparse.Namespace) -> int:
     if args.events is not None:
         print(f"site events: {args.events}")
     print(f"{'scenario':<8} {'env':<9} {'copies':>6} {'joint steps/s':>13} {'bytes/copy':>11}")
-    rounds: dict[int, list[float]] = {0: [], **{b: [] for b in VECTOR_COPIES}}
+    kinds = {"vector": np.float32, "vector-u8": np.uint8}  # the observations' dtype
+    rounds: dict[tuple[str, int], list[float]] = {("one-site", 1): []}
+    rounds.update({(kind, b): [] for b in VECTOR_COPIES for kind in kinds})
     for _ in range(3):  # interleaved, as above
-        rounds[0].append(
+        rounds["one-site", 1].append(
             joint_steps_per_second(scenario, cranes, args.steps // 4, events=args.events)
         )
         for b in VECTOR_COPIES:
-            rounds[b].append(
-                vector.motion_steps_per_second(scenario, cranes, b, events=args.events)
-            )
-    print(f"{scenario:<8} {'one-site':<9} {1:>6} {np.median(rounds[0]):>13,.0f}")
+            for kind, dtype in kinds.items():
+                rounds[kind, b].append(vector.motion_steps_per_second(
+                    scenario, cranes, b, events=args.events, obs_dtype=dtype))  # fmt: skip
+    print(f"{scenario:<8} {'one-site':<9} {1:>6} {np.median(rounds['one-site', 1]):>13,.0f}")
     for b in VECTOR_COPIES:
-        print(f"{scenario:<8} {'vector':<9} {b:>6} {np.median(rounds[b]):>13,.0f} "
-              f"{vector.motion_bytes_per_copy(scenario, cranes, b):>11,.0f}")  # fmt: skip
+        for kind, dtype in kinds.items():
+            size = vector.motion_bytes_per_copy(scenario, cranes, b, obs_dtype=dtype)
+            print(f"{scenario:<8} {kind:<9} {b:>6} {np.median(rounds[kind, b]):>13,.0f} "
+                  f"{size:>11,.0f}")  # fmt: skip
     first, second = vector.start_seconds(scenario, cranes)
     print(f"motion env, first step of a fresh process: {first:.1f} s with an empty numba "
           f"cache, {second:.2f} s with the cache it left")  # fmt: skip

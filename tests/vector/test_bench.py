@@ -32,12 +32,16 @@ def test_a_second_process_starts_from_the_cache():
 
 def fake_measurements(monkeypatch) -> None:
     """Stand-ins for the bench's measurements: 1,000 paper and 10 motion steps per second a
-    copy, 30 s to start with an empty numba cache and 1.5 s with it, 200,000 bytes a copy."""
+    copy (20 with uint8 observations), 30 s to start with an empty numba cache and 1.5 s with
+    it, 200,000 bytes a copy (100,000 with uint8 observations)."""
     monkeypatch.setattr(bench, "steps_per_second", lambda config, b: 1000.0 * b)
     monkeypatch.setattr(bench, "start_seconds", lambda config, cranes=None: (30.0, 1.5))
     monkeypatch.setattr(bench, "motion_steps_per_second",
-                        lambda scenario, cranes, b, events=None: 10.0 * b)  # fmt: skip
-    monkeypatch.setattr(bench, "motion_bytes_per_copy", lambda scenario, cranes, b: 2e5)
+                        lambda scenario, cranes, b, events=None, obs_dtype=np.float32:
+                        (20.0 if obs_dtype == np.uint8 else 10.0) * b)  # fmt: skip
+    monkeypatch.setattr(bench, "motion_bytes_per_copy",
+                        lambda scenario, cranes, b, obs_dtype=np.float32:
+                        1e5 if obs_dtype == np.uint8 else 2e5)  # fmt: skip
 
 
 def test_the_command_prints_both_envs(monkeypatch, capsys):
@@ -50,13 +54,21 @@ def test_the_command_prints_both_envs(monkeypatch, capsys):
         ["1", "1,000"], ["64", "64,000"], ["1024", "1,024,000"], ["4096", "4,096,000"]
     ]
     assert "30.0 s with an empty numba cache" in out[6] and "1.50 s with the cache" in out[6]
+    motion = [line.split() for line in out[8:17]]  # after the motion header: hall-4c rows
+    assert motion[0][:3] == ["hall-4c", "one-site", "1"]
+    assert [row[1:5] for row in motion[1:]] == [
+        [kind, str(b), f"{rate * b:,}", size]
+        for b in (1, 64, 1024, 4096)
+        for kind, rate, size in (("vector", 10, "200,000"), ("vector-u8", 20, "100,000"))
+    ]
 
 
 def test_events_reach_both_motion_envs_and_need_vector(monkeypatch, capsys):
     fake_measurements(monkeypatch)
     levels = []
     monkeypatch.setattr(bench, "motion_steps_per_second",
-                        lambda scenario, cranes, b, events=None: levels.append(events) or 1.0)
+                        lambda scenario, cranes, b, events=None, obs_dtype=None:
+                        levels.append(events) or 1.0)  # fmt: skip
     from multicrane.cli import bench as bench_command
 
     one_site = []

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_bench import fake_measurements
 
-from multicrane.cli import main
 from multicrane.core.codes import CLAIM_BASE, WAIT
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.vector import bench
@@ -84,16 +82,3 @@ def test_the_legal_sampler_draws_only_legal_actions():
 def test_motion_measurements():
     assert bench.motion_steps_per_second("e2s2", 2, 16, seconds=0.05) > 0
     assert bench.motion_bytes_per_copy("e2s2", 2, 8) > 0
-
-
-def test_the_command_prints_the_motion_rows(monkeypatch, capsys):
-    fake_measurements(monkeypatch)
-    assert main(["bench", "--vector", "--paper", "E2S2", "--steps", "40"]) == 0
-    out = capsys.readouterr().out.splitlines()[7:]
-    assert out[0].split() == ["scenario", "env", "copies", "joint", "steps/s", "bytes/copy"]
-    assert out[1].split()[:3] == ["hall-4c", "one-site", "1"]
-    assert [line.split()[2:5] for line in out[2:6]] == [
-        ["1", "10", "200,000"], ["64", "640", "200,000"], ["1024", "10,240", "200,000"],
-        ["4096", "40,960", "200,000"],
-    ]
-    assert "motion env, first step" in out[6]
