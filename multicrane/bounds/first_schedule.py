@@ -8,8 +8,10 @@ per
 crane, arrival no earlier than the step the target's last support is assembled, and a beam
 (or panel) claimed no earlier than the step some target it may fill is supported; with events,
 no claim before the component is due nor while its crane is down, and a task paused by its
-crane's breakdowns (``task_end``). Its makespan is an upper bound on the relaxation's optimum
-(not on the real problem's); when it equals the workload floor the relaxation is solved.
+crane's breakdowns (``task_end``); and given ``limits`` (``floors.option_heads``), no task
+starting or ending before its option's limits. Its makespan is an upper bound on the
+relaxation's optimum (not on the real problem's); when it equals the workload floor the
+relaxation is solved.
 """
 
 from __future__ import annotations
@@ -19,7 +21,9 @@ from multicrane.bounds.outages import finish, first_up
 from multicrane.core.kinds import waits_for_target
 
 
-def list_schedule(tasks: Tasks, assignment: dict[int, Option]) -> dict[int, tuple[int, Option]]:
+def list_schedule(tasks: Tasks, assignment: dict[int, Option],
+                  limits: dict[Option, tuple[int, int]] | None = None
+                  ) -> dict[int, tuple[int, Option]]:  # fmt: skip
     """Component -> (start, option) for a schedule of the relaxation with that assignment.
 
     The option is the assigned target's fastest option on the crane that finishes it soonest
@@ -56,7 +60,7 @@ def list_schedule(tasks: Tasks, assignment: dict[int, Option]) -> dict[int, tupl
             for o in choices[c]:
                 crane = o.crane if o.crane is not None else min(range(n), key=free_at.__getitem__)
                 earliest = max(due, ready - 1 - o.moves, claimable, free_at[crane])
-                start = first_up(tasks.outages_of(o.crane), earliest)
+                start = _first_start(tasks, o, earliest, (limits or {}).get(o, (0, 0)))
                 key = (start, task_end(tasks, start, o), -o.duration, c, crane)
                 if best is None or key < best[0]:
                     best = (key, c, crane, start, o)
@@ -69,6 +73,16 @@ def list_schedule(tasks: Tasks, assignment: dict[int, Option]) -> dict[int, tupl
         fill[o.target] = free_at[crane] = end
         pending.remove(c)
     return plan
+
+
+def _first_start(tasks: Tasks, option: Option, earliest: int, limit: tuple[int, int]) -> int:
+    """The first up step of the option's crane at or after ``earliest`` and the start limit
+    from which the task ends no earlier than the end limit."""
+    outages = tasks.outages_of(option.crane)
+    start = first_up(outages, max(earliest, limit[0]))
+    while task_end(tasks, start, option) < limit[1]:
+        start = first_up(outages, start + 1)
+    return start
 
 
 def task_end(tasks: Tasks, start: int, option: Option) -> int:

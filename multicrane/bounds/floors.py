@@ -18,7 +18,10 @@ events (``Tasks.has_events``) it is the largest of:
   before ``r`` does all its work after ``r``; one that starts at ``s < r`` at least
   ``duration - (r - s)``; one whose component arrives no earlier than ``r`` at least its
   ``assembly_steps``; that work needs as many up steps of the cranes after ``r`` (per
-  component with its options' least duration, start and arrival, which is no more).
+  component with its options' least duration, start and arrival, which is no more). A
+  task's start here is that of its last ``duration`` up steps before its end, of which the
+  ``assembly_steps`` after its arrival are part: so it is also no earlier than ``1 + moves``
+  up steps of its crane before the arrival's head (``outages.counted_back``).
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from multicrane.bounds.lift_options import Option, Tasks
-from multicrane.bounds.outages import finish, first_up, work_floor
+from multicrane.bounds.outages import counted_back, finish, first_up, work_floor
 from multicrane.core.kinds import waits_for_target
 
 
@@ -36,7 +39,9 @@ def floor_of(tasks: Tasks) -> int:
         return max([tasks.assignment_floor(), *tasks.shortest.values()])
     outages = tasks.outages or ((),) * tasks.n_cranes
     total = sum(o.duration for o in tasks.assignment().values())
-    start, arrive, end = heads(tasks)
+    found = heads(tasks)
+    _, arrive, end = found
+    begun = option_heads(tasks, found)
     fill = {}
     for o in tasks.options:
         fill[o.target] = min(end[o], fill.get(o.target, end[o]))
@@ -46,14 +51,32 @@ def floor_of(tasks: Tasks) -> int:
     # max(duration - (r - start), assembly if arrival >= r), as for each option
     least: dict[int, tuple[int, int, int]] = {}
     for o in tasks.options:
-        d, s, a = least.get(o.comp, (o.duration, start[o], arrive[o]))
-        least[o.comp] = (min(d, o.duration), min(s, start[o]), min(a, arrive[o]))
+        begins = begun[o][0]
+        d, s, a = least.get(o.comp, (o.duration, begins, arrive[o]))
+        least[o.comp] = (min(d, o.duration), min(s, begins), min(a, arrive[o]))
     duration, first, arrival = (np.array(v) for v in zip(*least.values(), strict=True))
     for r in sorted({*first.tolist(), *arrival.tolist()} - {0}):
         after = np.maximum(duration - np.maximum(0, r - first), assembly * (arrival >= r))
         if after.any():  # no work left after r: no floor from r
             floors.append(work_floor(outages, r, int(after.sum())))
     return max(floors)
+
+
+def option_heads(tasks: Tasks, found=None) -> dict[Option, tuple[int, int]]:
+    """Per option, lower limits on the start of its last ``duration`` up steps (the start
+    of its task in the model) and on its end, closures included (the model has no closures
+    of its own: these carry them into it). ``found``: ``heads(tasks)`` if known."""
+    start, arrive, end = found or heads(tasks)
+    return {o: (max(start[o], _begun(tasks, o, arrive[o])), end[o]) for o in tasks.options}
+
+
+def _begun(tasks: Tasks, option: Option, arrival: int) -> int:
+    """No earlier than ``1 + moves`` up steps of the option's crane before ``arrival``; an
+    option for any crane counts back on each crane's breakdowns and keeps the earliest."""
+    cranes = [tasks.outages_of(option.crane)]
+    if option.crane is None and tasks.outages:
+        cranes = list(tasks.outages)
+    return min(counted_back(outages, arrival, 1 + option.moves) for outages in cranes)
 
 
 def heads(tasks: Tasks) -> tuple[dict[Option, int], dict[Option, int], dict[Option, int]]:

@@ -53,7 +53,10 @@ the optimum of the relaxation is at most the best achievable makespan:
   its arrival counts back ``assembly_steps`` from its end (``end - assembly_steps >=`` the
   support's end): mapping an episode's task to the last ``duration`` up steps before its
   assembly ends gives a schedule of this model. Cranes with breakdowns get options per
-  crane. Closures enter only the floors (``multicrane.bounds.floors``; docs/bound.md).
+  crane. Closures enter through the heads (``multicrane.bounds.floors.option_heads``):
+  with the option chosen, its task starts no earlier than ``1 + moves`` up steps of its
+  crane before its arrival's head (the last ``assembly_steps`` of its ``duration`` up steps
+  come after the arrival) and ends no earlier than its end head (docs/bound.md).
 
 Cuts added (each implied by the model, stated to help the solver prove the bound): the
 workload floor with distinct targets, ``makespan >= ceil(W / n_cranes)`` with ``W`` the least
@@ -80,7 +83,7 @@ from typing import Any
 
 from multicrane.bounds.first_schedule import list_schedule, task_end
 from multicrane.bounds.first_schedule import makespan as schedule_makespan
-from multicrane.bounds.floors import floor_of
+from multicrane.bounds.floors import floor_of, option_heads
 from multicrane.bounds.lift_options import Option, Tasks, task_options
 from multicrane.bounds.outages import add_paused_task
 from multicrane.core.kinds import waits_for_target
@@ -149,6 +152,12 @@ class _Model:
     intervals: list[Any] = field(default_factory=list)
     by_crane: dict[int | None, list[tuple[Any, Option, Any]]] = field(default_factory=dict)
     paused: set[Option] = field(default_factory=set)  # options on a crane with breakdowns
+    floor: int = 0  # the makespan's lower limit (floors.floor_of)
+
+
+def limits_of(tasks: Tasks) -> dict[Option, tuple[int, int]]:
+    """With events, each option's start and end limits (``floors.option_heads``), else none."""
+    return option_heads(tasks) if tasks.has_events else {}
 
 
 def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None):
@@ -157,6 +166,12 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
     ``hint``: component -> (start, option) of a schedule of the relaxation
     (``multicrane.bounds.first_schedule.list_schedule``), given to the solver as a starting point.
     """
+    m = model_of(tasks, hint)
+    return m.model, m.makespan
+
+
+def model_of(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None) -> _Model:
+    """``build_model``'s model with its variables (``start`` and ``presence`` give a schedule)."""
     from ortools.sat.python import cp_model
 
     m = _start_model(cp_model.CpModel(), tasks, hint)
@@ -166,15 +181,16 @@ def build_model(tasks: Tasks, hint: dict[int, tuple[int, Option]] | None = None)
     m.model.Minimize(m.makespan)
     if hint is not None:
         _add_hint(m, tasks, hint)
-    return m.model, m.makespan
+    return m
 
 
 def _start_model(model, tasks: Tasks, hint: dict[int, tuple[int, Option]] | None) -> _Model:
     """The options by component, the horizon, the makespan and a fill time per free target.
 
     The horizon is that of one crane doing every task at its longest option, after the last
-    release and its own breakdowns; with events and a hint, the hint's makespan (the optimum
-    is no later), which keeps the breakdowns the model states few."""
+    release, the last closure and its own breakdowns; with events and a hint, the hint's
+    makespan (a schedule of the model: the optimum is no later), which keeps the breakdowns
+    the model states few."""
     by_comp: dict[int, list[Option]] = {c: [] for c in tasks.comps}
     for o in tasks.options:
         by_comp[o.comp].append(o)
@@ -182,8 +198,10 @@ def _start_model(model, tasks: Tasks, hint: dict[int, tuple[int, Option]] | None
     if tasks.has_events:
         horizon += max(tasks.release.values(), default=0)
         horizon += max((sum(b - a for a, b in o) for o in tasks.outages), default=0)
+        closures = [*tasks.closed_lift.values(), *tasks.closed_target.values()]
+        horizon += max((b for windows in closures for _, b in windows), default=0)
         if hint is not None:
-            horizon = min(horizon, schedule_makespan(tasks, hint))
+            horizon = schedule_makespan(tasks, hint)
     floor = floor_of(tasks)
     makespan = model.NewIntVar(floor, max(horizon, floor), "makespan")
     free_targets = [t for t in range(len(tasks.supports)) if t not in tasks.prebuilt_targets]
@@ -192,22 +210,29 @@ def _start_model(model, tasks: Tasks, hint: dict[int, tuple[int, Option]] | None
             f"{tasks.scenario.source}: {len(tasks.comps)} components to place on "
             f"{len(free_targets)} free targets"
         )
-    m = _Model(model, by_comp, horizon, free_targets, makespan)
+    m = _Model(model, by_comp, horizon, free_targets, makespan, floor=floor)
     m.fill = {t: model.NewIntVar(0, horizon, f"fill_{t}") for t in free_targets}
     return m
 
 
 def _add_tasks(m: _Model, tasks: Tasks) -> None:
     """Each component one task of one option (crane, target); each free target filled once;
-    a late component claimed no earlier than it is due; breakdowns pause their crane's task."""
+    a late component claimed no earlier than it is due; breakdowns pause their crane's task;
+    with events, each option's heads (``floors.option_heads``: closures included) as limits
+    on its start and end."""
     model, horizon, start, end = m.model, m.horizon, m.start, m.end
+    limits = limits_of(tasks)
     for c, opts in m.by_comp.items():
-        start[c] = model.NewIntVar(tasks.release.get(c, 0), horizon, f"start_{c}")
+        first = min(limits[o][0] for o in opts) if limits else 0
+        start[c] = model.NewIntVar(max(tasks.release.get(c, 0), first), horizon, f"start_{c}")
         end[c] = model.NewIntVar(0, horizon, f"end_{c}")
         model.Add(m.makespan >= end[c])
         for o in opts:
             p = model.NewBoolVar(f"p_{c}_{o.target}_{o.crane}")
             m.presence[o] = p
+            if o in limits:
+                model.Add(start[c] >= limits[o][0]).OnlyEnforceIf(p)
+                model.Add(end[c] >= limits[o][1]).OnlyEnforceIf(p)
             outages = tuple(w for w in tasks.outages_of(o.crane) if w[0] < horizon)
             if outages:
                 name = f"o_{c}_{o.target}_{o.crane}"
@@ -282,7 +307,7 @@ def _add_hint(m: _Model, tasks: Tasks, hint: dict[int, tuple[int, Option]]) -> N
         model.AddHint(m.fill[chosen.target], end)
         for o in m.by_comp[c]:
             model.AddHint(m.presence[o], o == chosen)
-    model.AddHint(m.makespan, schedule_makespan(tasks, hint))
+    model.AddHint(m.makespan, max(schedule_makespan(tasks, hint), m.floor))
 
 
 # -- solving ---------------------------------------------------------------------------------------
@@ -342,7 +367,7 @@ def solve_tasks(
     if not tasks.comps:
         return result(0, "optimal", 0, ["every component is pre-built"])
     floor = floor_of(tasks)
-    plan = list_schedule(tasks, tasks.assignment())
+    plan = list_schedule(tasks, tasks.assignment(), limits_of(tasks))
     notes = [
         f"{len(tasks.options)} options; workload floor {tasks.workload_floor}, "
         f"{tasks.assignment_floor()} with distinct targets; list schedule "

@@ -37,6 +37,20 @@ def finish(outages: tuple[Window, ...], start: int, duration: int) -> int:
     return end
 
 
+def counted_back(outages: tuple[Window, ...], t: int, n: int) -> int:
+    """The earliest ``S`` with at most ``n`` up steps in ``[S, t)`` (0 when there is no
+    earlier up step to count): a task whose last ``n`` up steps before ``t`` are its own
+    cannot have begun them before ``S``."""
+    count = 0
+    while t > 0:
+        t -= 1
+        if first_up(outages, t) == t:
+            count += 1
+            if count > n:
+                return t + 1
+    return 0
+
+
 def up_steps(outages: tuple[Window, ...], t0: int, t1: int) -> int:
     """How many steps of ``[t0, t1)`` the crane is up."""
     down = sum(max(0, min(b, t1) - max(a, t0)) for a, b in outages)

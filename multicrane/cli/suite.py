@@ -15,6 +15,7 @@ lower bounds, best-known plans and a verified leaderboard (docs/suite.md).
     multicrane suite evaluate v1 --track small --policy prioritized --out small-prio.json
     multicrane suite evaluate v1 --track small --policy lookahead      # task decisions
     multicrane suite evaluate v1 --track small --policy runs/RUN       # a training run
+    multicrane suite evaluate v1 --track small --policy runs/RUN --name ppo-zero-shot
     multicrane suite verify small-prio.json
     multicrane suite page                     # docs/suite-leaderboard.md and best.json
     multicrane suite build v1 --check         # the shipped files are rebuilt bit for bit
@@ -36,6 +37,8 @@ def register(sub) -> None:
     e.add_argument("--policy", required=True, help="a planner name or a training run directory")
     e.add_argument("--decisions", choices=("motion", "task"), default=None,
                    help="default: task for lookahead, a run's own, else motion")  # fmt: skip
+    e.add_argument("--name", help="the entry's policy name in the results (default: the "
+                   "planner's name, or 'ALGO (RUN)' for a training run)")  # fmt: skip
     e.add_argument("--out", type=Path, help="results file (default: suite-VERSION-TRACK-POLICY"
                    ".json here; .gz: compressed)")  # fmt: skip
     e.set_defaults(func=evaluate)
@@ -67,6 +70,9 @@ def register(sub) -> None:
     i.add_argument("--seconds", type=float, default=60.0, help="search budget per instance")
     i.add_argument("--instances", nargs="+", help="only these instance ids")
     i.add_argument("--seed", type=int, default=0, help="the search's random seed")
+    i.add_argument("--from-relaxation", type=float, default=0.0, metavar="SECONDS",
+                   help="also play the bound relaxation's schedule (CP-SAT, SECONDS) and start "
+                   "from it when shorter")  # fmt: skip
     i.add_argument("--out", type=Path, help="results file (default: suite-VERSION-TRACK-lns"
                    ".json here; .gz: compressed)")  # fmt: skip
     i.set_defaults(func=improve)
@@ -77,14 +83,17 @@ def _log(line: str) -> None:
 
 
 def _resolve(name: str, decisions: str | None):
-    """The policy factory, its label and decision level for a name or a run directory."""
+    """The policy factory, its label, decision level and training block (a training run's,
+    else None) for a name or a run directory."""
     import policies
     from multicrane.cli.common import trained_decisions
+    from multicrane.suite.play import training_block
 
     make = policies.factory(name, paper=False)
     if decisions is None:
         decisions = "task" if name in TASK_ONLY else trained_decisions(make)
-    return make, make.label, decisions
+    training = None if make.config is None else training_block(name, make.config.to_dict())
+    return make, make.label, decisions, training
 
 
 def evaluate(args: argparse.Namespace) -> int:
@@ -95,14 +104,17 @@ def evaluate(args: argparse.Namespace) -> int:
     try:
         manifest = read_manifest(args.version)
         manifest.track(args.track)
-        make, label, decisions = _resolve(args.policy, args.decisions)
+        make, label, decisions, training = _resolve(args.policy, args.decisions)
+        label = args.name or label
         results = play_track(
             manifest, args.track, make, label, decisions, read_best(manifest),
             log=lambda e: _log(f"{e['id']}: makespan {e['makespan']} ({e['seconds']:.1f} s)"),
+            training=training,
         )  # fmt: skip
     except ValueError as exc:  # SuiteError, policies.PolicyError, a policy refusing a site
         return error(exc)
-    slug = "".join(c if c.isalnum() or c in "-_" else "-" for c in Path(args.policy).name)
+    named = args.name or Path(args.policy).name
+    slug = "".join(c if c.isalnum() or c in "-_" else "-" for c in named)
     out = args.out or Path(f"suite-{manifest.version}-{args.track}-{slug}.json")
     return _write_and_show(out, results, f"{label} ({decisions}) on {manifest.version} track "
                            f"{args.track}")  # fmt: skip
@@ -202,7 +214,7 @@ def improve(args: argparse.Namespace) -> int:
         if unknown:
             raise SuiteError(f"not in track {args.track}: {', '.join(unknown)}")
         results = improve_track(manifest, args.track, args.seconds, args.instances, args.seed,
-                                log=_log)  # fmt: skip
+                                log=_log, relaxation_seconds=args.from_relaxation)  # fmt: skip
     except SuiteError as exc:
         return error(exc)
     out = args.out or Path(f"suite-{manifest.version}-{args.track}-{LABEL}.json")

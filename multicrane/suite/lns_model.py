@@ -9,10 +9,15 @@ step; no releases) or None when it found nothing.
 
 - A task outside ``freed`` keeps its crane and target, and its crane's fixed tasks keep
   their order (each ends before the next starts); its duration is the one the simulator
-  took (``timing``: waits and detours included).
+  took (``timing``: waits and detours included), counted in its crane's up steps.
 - A freed task may take any crane and any free target it may fill, at any place in the
   cranes' orders; an option's duration is its relaxed one scaled by how much longer the
   simulator took than the relaxation for that component's incumbent option.
+- With site events (``tasks`` made with ``events``) the model knows them as the bound does:
+  a late component starts no earlier than it is due, a crane's breakdown pauses the task it
+  holds (``multicrane.bounds.outages.add_paused_task``), and a component is not claimed
+  while a closure takes a cell of its yard or pick-up pose. Here these only steer the
+  proposals (the simulator judges them), so they need not be a relaxation.
 
 So the incumbent's simulated schedule is a solution of the model (it is given as the hint)
 and its objective is the simulated makespan. The objective is the makespan, then the sum of
@@ -26,6 +31,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from multicrane.bounds.lift_options import Tasks
+from multicrane.bounds.outages import Window, add_paused_task, up_steps
 from multicrane.core.kinds import waits_for_target
 from multicrane.suite.plan import Plan, Step, Timing
 
@@ -52,15 +58,23 @@ def choices_of(tasks: Tasks) -> dict[int, dict[tuple[int, int], int]]:
     return out
 
 
+def crane_outages(tasks: Tasks, crane: int) -> tuple[Window, ...]:
+    """The breakdowns of ``crane`` (none without events)."""
+    return tasks.outages[crane] if tasks.outages else ()
+
+
 def durations(relaxed: dict[int, dict[tuple[int, int], int]], plan: Plan,
-              timing: dict[int, Timing], freed: set[int]
+              timing: dict[int, Timing], freed: set[int],
+              outages: tuple[tuple[Window, ...], ...] = ()
               ) -> dict[int, dict[tuple[int, int], int]]:  # fmt: skip
     """Component -> {(target, crane): duration} of its choices in the model (module doc),
-    from the relaxed durations (``choices_of``)."""
+    from the relaxed durations (``choices_of``); ``outages``: per crane its breakdowns,
+    whose steps a task's simulated duration does not count."""
     placed = {s.comp: (s.target, k) for k, steps in enumerate(plan) for s in steps}
     out: dict[int, dict[tuple[int, int], int]] = {}
     for c, choices in relaxed.items():
-        took = timing[c].end - timing[c].start
+        when = timing[c]
+        took = up_steps(outages[when.crane] if outages else (), when.start, when.end)
         mine = placed[c]
         if c not in freed:
             out[c] = {mine: took}
@@ -77,12 +91,12 @@ def propose(tasks: Tasks, relaxed: dict[int, dict[tuple[int, int], int]], plan: 
     ``relaxed``: ``choices_of(tasks)``."""
     from ortools.sat.python import cp_model
 
-    choices = durations(relaxed, plan, timing, freed)
+    choices = durations(relaxed, plan, timing, freed, tasks.outages)
     makespan_now = max(t.end for t in timing.values())
     horizon = 2 * makespan_now + max(d for ch in choices.values() for d in ch.values())
     v = _Vars(cp_model.CpModel(), horizon)
     makespan = v.model.NewIntVar(0, horizon, "makespan")
-    by_crane = _add_tasks(v, tasks, choices, makespan)
+    by_crane = _add_tasks(v, tasks, choices, makespan, makespan_now)
     _add_readiness(v, tasks, choices)
     _keep_fixed_orders(v, plan, freed)
     for items in by_crane.values():
@@ -103,15 +117,20 @@ def propose(tasks: Tasks, relaxed: dict[int, dict[tuple[int, int], int]], plan: 
     return tuple(tuple(Step(c, t) for *_, c, t in sorted(x)) for x in lists)
 
 
-def _add_tasks(v: _Vars, tasks: Tasks, choices: dict, makespan) -> dict[int, list]:
+def _add_tasks(v: _Vars, tasks: Tasks, choices: dict, makespan, makespan_now: int
+               ) -> dict[int, list]:  # fmt: skip
     """Each component one choice; each free target filled once; the cranes' intervals."""
     model, horizon = v.model, v.horizon
     free_targets = [t for t in range(len(tasks.supports)) if t not in tasks.prebuilt_targets]
     v.fill = {t: model.NewIntVar(0, horizon, f"fill_{t}") for t in free_targets}
     by_target: dict[int, list] = {t: [] for t in free_targets}
     by_crane: dict[int, list] = {}
+    # only breakdowns that begin before the incumbent's makespan: a schedule no longer than it
+    # (the hint is one) meets no other
+    outages = [tuple(w for w in crane_outages(tasks, k) if w[0] < makespan_now)
+               for k in range(tasks.n_cranes)]  # fmt: skip
     for c, ch in choices.items():
-        v.start[c] = model.NewIntVar(0, horizon, f"start_{c}")
+        v.start[c] = model.NewIntVarFromDomain(open_times(tasks, c, horizon), f"start_{c}")
         v.end[c] = model.NewIntVar(0, horizon, f"end_{c}")
         model.Add(makespan >= v.end[c])
         here = []
@@ -120,14 +139,33 @@ def _add_tasks(v: _Vars, tasks: Tasks, choices: dict, makespan) -> dict[int, lis
             v.chosen[(c, t, k)] = p
             here.append(p)
             by_target[t].append(p)
-            iv = model.NewOptionalFixedSizeIntervalVar(v.start[c], d, p, f"iv_{c}_{t}_{k}")
+            if outages[k]:
+                iv, ends, _ = add_paused_task(model, v.start[c], d, p, outages[k], horizon,
+                                              f"o_{c}_{t}_{k}")  # fmt: skip
+                model.Add(v.end[c] == ends).OnlyEnforceIf(p)
+            else:
+                iv = model.NewOptionalFixedSizeIntervalVar(v.start[c], d, p, f"iv_{c}_{t}_{k}")
+                model.Add(v.end[c] == v.start[c] + d).OnlyEnforceIf(p)
             by_crane.setdefault(k, []).append(iv)
-            model.Add(v.end[c] == v.start[c] + d).OnlyEnforceIf(p)
             model.Add(v.fill[t] == v.end[c]).OnlyEnforceIf(p)
         model.AddExactlyOne(here)
     for ps in by_target.values():
         model.AddExactlyOne(ps)
     return by_crane
+
+
+def open_times(tasks: Tasks, comp: int, horizon: int):
+    """The start steps the component may have: from the step it is due, outside the
+    closures of its yard or pick-up cells."""
+    from ortools.sat.python import cp_model
+
+    free, t = [], tasks.release.get(comp, 0)
+    for a, b in sorted(tasks.closed_lift.get(comp, ())):
+        if a > t:
+            free.append([t, min(a, horizon + 1) - 1])
+        t = max(t, b)
+    free.append([t, horizon])
+    return cp_model.Domain.FromIntervals([w for w in free if w[0] <= w[1]])
 
 
 def _add_readiness(v: _Vars, tasks: Tasks, choices: dict) -> None:

@@ -5,9 +5,12 @@ file; a file that fails stops the page with the error (naming the file and the i
 ``best_known(collected)`` is, per instance, the smallest verified makespan and where its
 record is kept (file, policy; the first file in name order on ties); ``write_best`` keeps it in
 the version's ``best.json`` (read by ``read_best`` for the gaps ``suite evaluate`` prints).
-``leaderboard(...)`` is the markdown page: per track, the entries (the project's own,
-``first``, before the rest; each group by gap to the bound), then per instance its bound and
-best-known.
+``leaderboard(...)`` is the markdown page: per track, the entries, then per instance its bound
+and best-known. Each entry has a kind (``entry_kind``): ``planner`` (a name in ``first``, the
+project's planners), ``learned`` (results that carry a training run's ``training`` block,
+``multicrane.suite.play.training_block``), ``search`` (the large-neighbourhood search of
+``suite improve``, ``SEARCH``) or ``submitted``; the entries are ranked in that order of kinds,
+each kind by gap to the bound.
 """
 
 from __future__ import annotations
@@ -26,6 +29,8 @@ from multicrane.tables import markdown_table
 BEST = "best.json"
 RESULTS_DIR = "results"
 TARGETS = {"small": 5.0, "medium": 10.0}  # issue 35: mean gap best-known vs bound (percent)
+SEARCH = "lns"  # the policy name of the results ``suite improve`` writes (multicrane.suite.lns)
+KINDS = ("planner", "learned", "search", "submitted")  # the page's order of entries
 
 
 def results_files(manifest: Manifest) -> list[Path]:
@@ -153,19 +158,29 @@ def _entries(manifest: Manifest, track: str, collected: list, best: dict, bounds
         if results["track"] != track:
             continue
         s = _entry_gaps(results["instances"], best, bounds)
-        rank = (results["policy"] not in first, s["gap_bound"] is None, s["gap_bound"] or 0.0)
+        kind = entry_kind(results, first)
+        rank = (KINDS.index(kind), s["gap_bound"] is None, s["gap_bound"] or 0.0)
         span = "-" if s["makespan_mean"] is None else f"{s['makespan_mean']:.1f}"
         rows.append((rank, [
             f"`{results['policy']}`", results["decisions"], f"{s['completed']}/{s['instances']}",
             span, pct(s["gap_bound"]), pct(s["gap_best"]), f"{s['seconds']:.0f}",
-            f"`{_relative(item['path'], manifest.folder)}`",
+            f"`{_relative(item['path'], manifest.folder)}`", kind,
         ]))  # fmt: skip
     if not rows:
         return ["No verified results on this track yet."]
     head = ["policy", "decisions", "completed", "mean makespan", "gap to bound",
-            "gap to best known", "seconds", "results"]  # fmt: skip
+            "gap to best known", "seconds", "results", "kind"]  # fmt: skip
     ranked = [row for _, row in sorted(rows, key=lambda r: r[0])]
-    return markdown_table(head, ranked, align="llrrrrrl")
+    return markdown_table(head, ranked, align="llrrrrrll")
+
+
+def entry_kind(results: dict[str, Any], planners: tuple[str, ...]) -> str:
+    """What made a results file's entry, one of ``KINDS`` (see the module doc)."""
+    if results["policy"] in planners:
+        return "planner"
+    if "training" in results:
+        return "learned"
+    return "search" if results["policy"] == SEARCH else "submitted"
 
 
 def _instances(manifest: Manifest, track: str, best: dict, bounds: dict) -> list[str]:

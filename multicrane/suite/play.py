@@ -12,6 +12,8 @@ checksum, the track, the policy and its decision level, and per instance: ``id``
 time of the episode, policy included), ``bound`` and its ``bound_status`` (from
 bounds.json, when computed), ``best_known`` (the best verified makespan when evaluated) and
 ``record``: the episode record's dict with its ``checksum`` (``multicrane.replay.record_file``).
+A learned policy's results also carry ``training`` (``training_block``): the run directory's
+name and its ``config.json``, so an entry says how its policy was trained whatever it is named.
 """
 
 from __future__ import annotations
@@ -72,9 +74,11 @@ def play_track(
     decisions: str = "motion",
     best: dict[str, int] | None = None,
     log: Callable[[dict[str, Any]], None] | None = None,
+    training: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """The results dict of the policy on every instance of ``track`` (see the module doc);
-    ``best``: the best-known makespans to store beside each; ``log`` sees each entry."""
+    ``best``: the best-known makespans to store beside each; ``log`` sees each entry;
+    ``training``: a learned policy's ``training_block``."""
     bounds = read_bounds(manifest)
     entries = []
     for instance in manifest.track(track):
@@ -82,7 +86,7 @@ def play_track(
         entries.append(results_entry(instance, record, seconds, bounds, best))
         if log:
             log(entries[-1])
-    return results_dict(manifest, track, label, decisions, entries)
+    return results_dict(manifest, track, label, decisions, entries, training)
 
 
 def results_entry(instance: Instance, record: EpisodeRecord, seconds: float,
@@ -101,10 +105,23 @@ def results_entry(instance: Instance, record: EpisodeRecord, seconds: float,
 
 
 def results_dict(manifest: Manifest, track: str, label: str, decisions: str,
-                 entries: list[dict[str, Any]]) -> dict[str, Any]:  # fmt: skip
+                 entries: list[dict[str, Any]], training: dict[str, Any] | None = None
+                 ) -> dict[str, Any]:  # fmt: skip
     """A results dict (see the module doc) of the entries of one track."""
-    return {
+    results = {
         "format": RESULTS_FORMAT, "suite": SUITE, "version": manifest.version,
         "manifest_sha256": manifest.sha256, "track": track, "policy": label,
-        "decisions": decisions, "instances": entries,
+        "decisions": decisions,
     }  # fmt: skip
+    if training is not None:
+        results["training"] = training
+    return {**results, "instances": entries}
+
+
+def training_block(run_dir: str | Path, config: dict[str, Any]) -> dict[str, Any]:
+    """What a learned policy's results say of its training: the run directory's name and its
+    configuration (``config.json``: everything ``multicrane train`` was told); ``run_dir``
+    may name the run's ``model.zip``."""
+    run_dir = Path(run_dir)
+    return {"run": (run_dir.parent if run_dir.suffix == ".zip" else run_dir).name,
+            "config": config}  # fmt: skip

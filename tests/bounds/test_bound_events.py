@@ -16,7 +16,7 @@ import multicrane
 import policies
 from multicrane.bounds.lift_options import task_options
 from multicrane.bounds.makespan import lower_bound
-from multicrane.bounds.outages import finish, first_up, up_steps, work_floor
+from multicrane.bounds.outages import counted_back, finish, first_up, up_steps, work_floor
 from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, WAIT, Status
 from multicrane.episodes.rollout import run_episode
 from multicrane.scenario.generator import generate
@@ -43,6 +43,22 @@ def test_a_task_ends_after_its_work_in_up_steps(outages, start, duration, up, en
     assert first_up(outages, start) == up
     assert finish(outages, up, duration) == end
     assert up_steps(outages, up, end) == duration
+
+
+@pytest.mark.parametrize(
+    ("outages", "t", "n", "earliest"),
+    [
+        ((), 20, 4, 16),  # 4 up steps before 20: from 16
+        (((17, 19),), 20, 4, 14),  # two of the steps before 20 are down
+        (((10, 16),), 20, 4, 10),  # the steps just before 16 are down: 10 .. 15 count none
+        (((0, 3),), 5, 4, 0),  # fewer than 4 up steps before 5: from 0
+        ((), 3, 0, 3),
+    ],
+)
+def test_a_tasks_last_up_steps_are_counted_back(outages, t, n, earliest):
+    assert counted_back(outages, t, n) == earliest
+    assert up_steps(outages, earliest, t) <= n
+    assert earliest == 0 or up_steps(outages, earliest - 1, t) > n
 
 
 def test_the_work_floor_counts_only_up_steps():
@@ -119,6 +135,10 @@ CASES = [
     ((C,), 1, {}, (), ((C_TARGET, 0, 5),), {0: [(1, "c")]}, 11),  # open again in time
     ((C,), 1, {}, (), ((C_YARD, 0, 8),), {0: [(1, "c")]}, 8 + 11),  # no lift while closed
     ((C,), 1, {"c": 3}, ((0, 9, 12),), ((C_YARD, 0, 8),), {0: [(1, "c")]}, 8 + 11 + 3),
+    # c cannot arrive before 21, so its 11 steps of work begin at 11 at the soonest, and d is
+    # due at 15: one crane needs 32 (c first, hovering until its target opens, then d; d
+    # first takes 36); without counting c's work back from its arrival the floor was 26
+    ((C, D), 1, {"d": 15}, (), ((C_TARGET, 0, 20),), {0: [(1, "c"), (1, "d")]}, 22 + 10),
 ]
 
 
