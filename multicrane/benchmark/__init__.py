@@ -2,6 +2,7 @@
 mode, run, resumed, aggregated into Table I's metric and plotted (``multicrane benchmark``).
 
 - ``profiles``: budget profiles (smoke, quick, paper) and the runs a sweep expands to.
+- ``choices``: the command line's choices of configurations and seeds, parsed; ``SweepError``.
 - ``runstate``: what a run directory holds (done, partial, ...), repairs before a resume.
 - ``manifest``: the sweep directory's ``sweep.json`` (sessions) and its lock.
 - ``estimate``: how long runs take; longest first.
@@ -19,12 +20,12 @@ Nothing here imports torch until a run starts: ``status`` and ``report`` read JS
 May import: every room below it (``core`` to ``training``).
 """
 
+from multicrane.benchmark.choices import SweepError
 from multicrane.benchmark.profiles import (
     PROFILES,
     Profile,
     RunSpec,
     Sweep,
-    SweepError,
     make_sweep,
 )
 

@@ -11,8 +11,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from multicrane.benchmark.choices import SweepError
 from multicrane.benchmark.estimate import format_duration
-from multicrane.benchmark.profiles import Sweep, SweepError
+from multicrane.benchmark.profiles import Sweep
 from multicrane.benchmark.runstate import read_json
 from multicrane.files import write_json_atomic
 

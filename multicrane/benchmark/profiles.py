@@ -9,11 +9,12 @@ A sweep is configurations x algorithms x seeds under one budget. Each run is one
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from multicrane.benchmark.choices import SweepError, parse_configs
 from multicrane.envs.paper_env import PAPER_CONFIGS
 
 ALGOS = ("dqn", "double_dqn", "a2c", "ppo", "maskable_ppo")
@@ -25,10 +26,6 @@ PAPER_ALGOS = ("dqn", "double_dqn", "a2c", "ppo")
 DEFAULT_ROOT = Path("runs") / "bench"
 
 
-class SweepError(ValueError):
-    """A sweep that cannot be set up or run; the message names the option, value or file."""
-
-
 # -- profiles ------------------------------------------------------------------------------------
 
 
@@ -36,9 +33,9 @@ class SweepError(ValueError):
 class Profile:
     """A named budget: which runs, and how long each trains and is evaluated.
 
-    ``hyperparams``, ``n_envs`` and ``shaping`` are per algorithm
-    (``TrainConfig.hyperparams`` / ``n_envs`` / ``shaping``, the weight of the potential-based
-    shaping of the learner's reward); absent algorithms use the paper's settings and reward.
+    ``hyperparams`` (``config_hyperparams``: some configurations' own, over them), ``n_envs``
+    and ``shaping`` are per algorithm (``TrainConfig`` fields; ``shaping`` weighs the potential-
+    based shaping of the learner's reward); absent algorithms use the paper's settings and reward.
     ``options``: other ``TrainConfig`` fields per algorithm (``potential``, ``shaping_gamma``).
     ``algo_configs``: the configurations of an algorithm that runs on fewer than ``configs``.
     """
@@ -58,6 +55,7 @@ class Profile:
     shaping: dict[str, float] = field(default_factory=dict)
     options: dict[str, dict[str, Any]] = field(default_factory=dict)
     algo_configs: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    config_hyperparams: dict[str, dict[str, dict[str, Any]]] = field(default_factory=dict)
 
 
 # The standard profile's learners: the paper's settings except these (our choice, for speed
@@ -85,8 +83,8 @@ STANDARD_SETTINGS: dict[str, dict[str, Any]] = {
 
 ENV1_ENV2 = tuple(c for c in PAPER_CONFIGS if c[:2] in ("E1", "E2"))
 
-PAPER_BUDGET_LEAN = {"n_envs": 64, "shaping": 1.0,  # the paper's budget: ours (docs/benchmark.md)
-                     "hyperparams": {"batch_size": 256, "policy_kwargs": {"net_arch": [256, 256]}},
+PAPER_BUDGET_LEAN = {"n_envs": 64, "shaping": 1.0,  # ours; E4S3 256-256 below (docs/benchmark.md)
+                     "hyperparams": {"batch_size": 256, "policy_kwargs": {"net_arch": [128, 128]}},
                      "options": {"potential": "path", "shaping_gamma": 1.0}}  # fmt: skip
 PAPER_BUDGET_STEPS = 1_000_000
 
@@ -156,9 +154,11 @@ PROFILES: dict[str, Profile] = {
             checkpoint_every=100_000,
             **{key: {"lean_ppo": value} for key, value in PAPER_BUDGET_LEAN.items()},
             algo_configs={a: ENV1_ENV2 for a in PAPER_ALGOS},
-            about="the paper's budget: lean PPO (64 copies, minibatch 256, 256-256, shaped reward) "
-            "on all 16 configurations, the paper's four at its settings on Env1/Env2, 5 seeds, "
-            f"{PAPER_BUDGET_STEPS:,} steps a run; ~30 h on 2 cores, lean PPO's 80 runs ~2.8 h",
+            config_hyperparams={"lean_ppo": {"E4S3": {"policy_kwargs": {"net_arch": [256, 256]}}}},
+            about="the paper's budget: lean PPO (64 copies, minibatch 256, 128-128 but E4S3 "
+            "256-256, shaped reward) on all 16 configurations, the paper's four at its settings "
+            f"on Env1/Env2, 5 seeds, {PAPER_BUDGET_STEPS:,} steps a run; ~30 h on 2 cores, lean "
+            "PPO's 80 runs ~1.9 h",
         ),
         Profile(
             name="paper",
@@ -218,6 +218,7 @@ class Sweep:
     shaping: dict[str, float] = field(default_factory=dict)
     options: dict[str, dict[str, Any]] = field(default_factory=dict)
     algo_configs: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    config_hyperparams: dict[str, dict[str, dict[str, Any]]] = field(default_factory=dict)
 
     def runs(self) -> list[RunSpec]:
         """Every run, configuration-major, then algorithm (on its ``algo_configs``), then seed."""
@@ -230,6 +231,7 @@ class Sweep:
         ]
 
     def train_kwargs(self, config: str, algo: str, seed: int) -> dict[str, Any]:
+        own = self.config_hyperparams.get(algo, {}).get(config, {})
         return jsonable(
             {
                 "scenario": config,
@@ -238,7 +240,7 @@ class Sweep:
                 "total_steps": self.steps,
                 "seed": seed,
                 "n_envs": self.n_envs.get(algo),
-                "hyperparams": self.hyperparams.get(algo, {}),
+                "hyperparams": {**self.hyperparams.get(algo, {}), **own},
                 "shaping": self.shaping.get(algo),
                 "eval_every": self.eval_every,
                 "eval_episodes": self.eval_episodes,
@@ -275,6 +277,7 @@ class Sweep:
             "shaping": dict(self.shaping),
             "options": jsonable(self.options),
             "algo_configs": jsonable(self.algo_configs),
+            "config_hyperparams": jsonable(self.config_hyperparams),
         }
 
 
@@ -342,49 +345,11 @@ def make_sweep(
         shaping={a: w for a, w in profile.shaping.items() if a in chosen_algos},
         options={a: dict(o) for a, o in profile.options.items() if a in chosen_algos},
         algo_configs={a: c for a, c in profile.algo_configs.items() if a in chosen_algos},
+        config_hyperparams={
+            a: d for a, d in profile.config_hyperparams.items() if a in chosen_algos
+        },
         **budget,
     )
-
-
-def parse_configs(items: Iterable[str]) -> tuple[str, ...]:
-    """``E1S1`` .. ``E4S4``, ``E2`` (its four scenarios) or ``all``, in paper order."""
-    chosen: set[str] = set()
-    for item in items:
-        token = item.strip().upper()
-        if token == "ALL":
-            chosen.update(PAPER_CONFIGS)
-        elif token in PAPER_CONFIGS:
-            chosen.add(token)
-        elif token in ("E1", "E2", "E3", "E4"):
-            chosen.update(c for c in PAPER_CONFIGS if c.startswith(token))
-        else:
-            raise SweepError(
-                f"unknown configuration {item!r}: E1S1 .. E4S4, E1 .. E4 (an environment's "
-                "four scenarios) or all"
-            )
-    return tuple(c for c in PAPER_CONFIGS if c in chosen)
-
-
-def parse_seeds(items: Iterable[str]) -> tuple[int, ...]:
-    """``0 1 2``, ``0-14`` or ``0,3,5``."""
-    seeds: list[int] = []
-    for item in items:
-        for part in str(item).split(","):
-            part = part.strip()
-            if not part:
-                continue
-            first, dash, last = part.partition("-")
-            try:
-                if dash:
-                    lo, hi = int(first), int(last)
-                    if hi < lo:
-                        raise ValueError
-                    seeds.extend(range(lo, hi + 1))
-                else:
-                    seeds.append(int(part))
-            except ValueError:
-                raise SweepError(f"seeds {item!r}: expected integers or ranges like 0-14") from None
-    return tuple(seeds)
 
 
 def format_seeds(seeds: Sequence[int]) -> str:

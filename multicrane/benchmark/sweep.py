@@ -13,10 +13,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from multicrane.benchmark.choices import SweepError
 from multicrane.benchmark.estimate import estimate_wall, format_duration, longest_first
 from multicrane.benchmark.jobs import Job
 from multicrane.benchmark.manifest import sweep_lock
-from multicrane.benchmark.profiles import Sweep, SweepError
+from multicrane.benchmark.profiles import Sweep
 from multicrane.benchmark.runstate import (
     DONE,
     ERROR,

@@ -11,6 +11,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+from multicrane.benchmark.choices import SweepError, parse_seeds
 from multicrane.benchmark.estimate import estimate_wall, format_duration
 from multicrane.benchmark.manifest import record_session, session_labels
 from multicrane.benchmark.profiles import (
@@ -18,9 +19,7 @@ from multicrane.benchmark.profiles import (
     PROFILES,
     RUNNABLE_ALGOS,
     Sweep,
-    SweepError,
     make_sweep,
-    parse_seeds,
 )
 from multicrane.benchmark.runstate import (
     DONE,

@@ -20,15 +20,13 @@ from pathlib import Path
 import pytest
 
 from multicrane.benchmark import aggregate, page
+from multicrane.benchmark.choices import SweepError, parse_configs, parse_seeds
 from multicrane.benchmark.jobs import Job, Outcome
 from multicrane.benchmark.local import LocalBackend
 from multicrane.benchmark.manifest import sweep_lock
 from multicrane.benchmark.profiles import (
     PROFILES,
-    SweepError,
     make_sweep,
-    parse_configs,
-    parse_seeds,
 )
 from multicrane.benchmark.reference import TABLE_I
 from multicrane.benchmark.runstate import (

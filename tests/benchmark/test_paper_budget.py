@@ -29,9 +29,9 @@ def test_paper_budget_runs_lean_ppo_everywhere_and_sb3_on_env1_env2():
     for spec in runs:
         t = spec.train
         assert t["total_steps"] == 1_000_000 and t["paper"] is True and t["final_episodes"] == 20
-        if spec.algo == "lean_ppo":  # ours: 64 copies, minibatch 256, 256-256, shaped reward
-            wide = {"net_arch": [256, 256]}
-            assert t["hyperparams"] == {"batch_size": 256, "policy_kwargs": wide}
+        if spec.algo == "lean_ppo":  # ours: 64 copies, minibatch 256, 128-128, shaped reward
+            net = [256, 256] if spec.config == "E4S3" else [128, 128]  # E4S3's greedy loops
+            assert t["hyperparams"] == {"batch_size": 256, "policy_kwargs": {"net_arch": net}}
             assert t["n_envs"] == 64
             assert (t["shaping"], t["potential"], t["shaping_gamma"]) == (1.0, "path", 1.0)
         else:  # the paper's settings and reward
@@ -40,15 +40,27 @@ def test_paper_budget_runs_lean_ppo_everywhere_and_sb3_on_env1_env2():
     for spec in runs[:: len(p.seeds)]:  # every setting is a valid training configuration
         TrainConfig(**spec.train)
     assert sweep.to_dict()["algo_configs"] == {a: list(ENV1_ENV2) for a in PAPER_ALGOS}
+    wide = {"lean_ppo": {"E4S3": {"policy_kwargs": {"net_arch": [256, 256]}}}}
+    assert sweep.to_dict()["config_hyperparams"] == wide
+    # picking runs keeps a configuration's own settings; other algorithms have none
+    (picked,) = make_sweep("paper-budget", configs=["E4S3"], algos=["lean_ppo"], seeds=[1]).runs()
+    assert picked.train["hyperparams"]["policy_kwargs"] == {"net_arch": [256, 256]}
+    assert make_sweep("paper-budget", algos=["dqn"]).to_dict()["config_hyperparams"] == {}
 
 
-def test_paper_budget_estimate_lean_ppo_under_three_hours_sb3_the_long_pole():
+def test_paper_budget_estimate_lean_ppo_under_two_hours_sb3_the_long_pole():
     runs = make_sweep("paper-budget").runs()
     lean = [r for r in runs if r.algo == "lean_ppo"]
-    # issue 32's target for its 80 runs is 2 hours: the 256-256 network (E4S3's fix) misses it
-    assert 2 * 3600 < estimate_wall(lean, workers=2) < 3 * 3600
-    # a lean PPO run: 1,000,000 steps at ~4,100 steps/s, plus 64 evaluation episodes
-    assert 240 < estimate_seconds(lean[0]) < 255 < estimate_seconds(lean[-1]) < 270
+    # issue 32's target for its 80 runs: 2 hours (the 256-256 network everywhere: ~2.8 h)
+    assert 1.8 * 3600 < estimate_wall(lean, workers=2) < 2 * 3600
+    # a lean PPO run: 1,000,000 steps at ~6,500 steps/s (128-128), plus 64 evaluation episodes
+    assert 155 < estimate_seconds(lean[0]) < 160 < estimate_seconds(lean[-1]) < 180
+    wide = [r for r in lean if r.config == "E4S3"]  # 256-256: ~4,100 steps/s
+    assert len(wide) == 5 and all(260 < estimate_seconds(r) < 270 for r in wide)
+    assert {r.config for r in longest_first(lean)[:5]} == {"E4S3"}
+    everywhere = {"batch_size": 256, "policy_kwargs": {"net_arch": [256, 256]}}
+    everywhere = [replace(r, train={**r.train, "hyperparams": everywhere}) for r in lean]
+    assert 2.7 * 3600 < estimate_wall(everywhere, workers=2) < 2.9 * 3600
     narrow = {"batch_size": 256}  # the 64-64 network: ~10,000 steps/s
     narrow = replace(lean[0], train={**lean[0].train, "hyperparams": narrow})
     assert 100 < estimate_seconds(narrow) < 110
