@@ -1,6 +1,7 @@
 """The observation builder: one flat float32 vector per crane, fixed shape per scenario.
 
-Layout (``ObservationLayout`` gives the slices; ``split`` undoes the flattening):
+Layout (``ObservationLayout``, ``multicrane.envs.observation_layout``, gives the slices;
+``split`` undoes the flattening):
 
 1. ``planes``: an (X, Y, 9) array over the site's plan, channel last. Each channel holds the
    height of the highest qualifying cell above (x, y), divided by the site height (0 = none):
@@ -40,12 +41,19 @@ channels 7-8, the "held by this crane" column and the crane vector.
 from __future__ import annotations
 
 import struct
-from dataclasses import dataclass
 
 import numpy as np
 
 from multicrane.core.codes import Status
 from multicrane.core.kinds import kind_spec
+from multicrane.envs.observation_layout import (
+    COMPONENT_FEATURES,
+    CRANE_FEATURES,
+    MINE,
+    MY_TARGETS,
+    N_OWN,
+    ObservationLayout,
+)
 from multicrane.envs.plane_grid import (
     ANY_TARGET,
     AT_TARGET,
@@ -65,10 +73,6 @@ from multicrane.sim.simulator import NOBODY, WALL, Simulator
 
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
 
-N_OWN = 2
-COMPONENT_FEATURES = 14
-CRANE_FEATURES = 9
-MINE, MY_TARGETS = N_SHARED, N_SHARED + 1
 
 # A component table row and a crane vector, packed straight into an observation's buffer.
 _ROW = struct.Struct(f"{COMPONENT_FEATURES}f")
@@ -76,70 +80,6 @@ _CRANE = struct.Struct(f"{CRANE_FEATURES}f")
 _NOT_HOLDING = (0.0,) * 5
 
 MULTI_AGENT_PLANES = PlaneSpec(tuple(1 << b for b in range(N_SHARED)), (HEIGHT,) * N_SHARED, True)
-
-
-@dataclass(frozen=True)
-class ObservationLayout:
-    """Where each part lies in the flat observation vector."""
-
-    plan: tuple[int, int]  # (X, Y)
-    n_components: int
-    n_shared: int = N_SHARED
-    n_cranes: int = 0  # > 0: the events block is present (see the module doc)
-
-    @property
-    def shared(self) -> slice:
-        return slice(0, self.plan[0] * self.plan[1] * self.n_shared)
-
-    @property
-    def own(self) -> slice:
-        start = self.shared.stop
-        return slice(start, start + self.plan[0] * self.plan[1] * N_OWN)
-
-    @property
-    def components(self) -> slice:
-        start = self.own.stop
-        return slice(start, start + self.n_components * COMPONENT_FEATURES)
-
-    @property
-    def crane(self) -> slice:
-        start = self.components.stop
-        return slice(start, start + CRANE_FEATURES)
-
-    @property
-    def clock(self) -> slice:
-        """The crane vector's last value: the fraction of the step limit used."""
-        return slice(self.crane.stop - 1, self.crane.stop)
-
-    @property
-    def events(self) -> slice:
-        start = self.crane.stop
-        n = self.n_components + self.n_cranes + self.plan[0] * self.plan[1] if self.n_cranes else 0
-        return slice(start, start + n)
-
-    @property
-    def size(self) -> int:
-        return self.events.stop
-
-    def split(self, obs: np.ndarray) -> dict[str, np.ndarray]:
-        """The flat vector as ``planes`` (X, Y, 9), ``components`` (C, 14) and ``crane`` (9,)."""
-        X, Y = self.plan
-        planes = np.concatenate(
-            [obs[self.shared].reshape(X, Y, N_SHARED), obs[self.own].reshape(X, Y, N_OWN)],
-            axis=-1,
-        )
-        out = {
-            "planes": planes,
-            "components": obs[self.components].reshape(self.n_components, COMPONENT_FEATURES),
-            "crane": obs[self.crane],
-        }
-        if self.n_cranes:
-            ev = obs[self.events]
-            C, N = self.n_components, self.n_cranes
-            out["delivered"] = ev[:C]
-            out["available"] = ev[C : C + N]
-            out["closed"] = ev[C + N :].reshape(X, Y)
-        return out
 
 
 class Observer:
@@ -392,7 +332,8 @@ class Observer:
         _CRANE.pack_into(obs, (base + self._crane_start) * 4, *vector)
 
 
-# The plane constants and PlaneSpec live in plane_grid; they are part of this module's face.
+# The plane constants and PlaneSpec live in plane_grid, the layout in observation_layout;
+# they are part of this module's face.
 __all__ = ["ANY_TARGET", "AT_TARGET", "FREE_TARGET", "HEIGHT", "IN_TRANSIT", "INITIAL", "MARK",
            "OBSTACLE", "OVER_LIMIT", "READY", "COMPONENT_FEATURES", "CRANE_FEATURES", "MINE",
            "MULTI_AGENT_PLANES", "MY_TARGETS", "N_OWN", "N_SHARED", "ObservationLayout",

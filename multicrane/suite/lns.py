@@ -40,7 +40,7 @@ import numpy as np
 
 from multicrane.bounds.first_schedule import list_schedule
 from multicrane.bounds.lift_options import Tasks, task_options
-from multicrane.bounds.makespan import limits_of, model_of
+from multicrane.bounds.makespan_model import limits_of, model_of
 from multicrane.replay import record_file
 from multicrane.replay.record import EpisodeRecord, record_episode
 from multicrane.suite.bounds import read_bounds

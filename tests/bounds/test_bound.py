@@ -20,7 +20,8 @@ import multicrane
 import policies
 from multicrane.bounds.first_schedule import list_schedule
 from multicrane.bounds.lift_options import task_options
-from multicrane.bounds.makespan import build_model, lower_bound
+from multicrane.bounds.makespan import lower_bound
+from multicrane.bounds.makespan_model import build_model
 from multicrane.cli import main
 from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, WAIT, Status
 from multicrane.core.schema import CraneSpec

@@ -16,7 +16,7 @@ import policies
 from multicrane.bounds.first_schedule import list_schedule
 from multicrane.bounds.floors import floor_of, option_heads
 from multicrane.bounds.lift_options import Tasks, task_options
-from multicrane.bounds.makespan import build_model, limits_of
+from multicrane.bounds.makespan_model import build_model, limits_of
 from multicrane.bounds.outages import first_up
 from multicrane.replay.record import record_episode
 from multicrane.scenario.generator import generate
