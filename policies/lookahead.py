@@ -59,14 +59,24 @@ class TaskLookahead:
         self.options = {"max_searches": max_searches, "rank": rank}
         self.base = base or (lambda env: TaskPrioritized(env, **self.options))
         self.rollouts = 0  # finished copies so far (its cost)
+        # The last round's search values: (the first idle crane's agent, {its action: the
+        # makespan its copy finished at}), None when the round compared nothing; imitation
+        # with soft targets reads them (multicrane.training.soft_targets).
+        self.values: tuple[str, dict[int, int]] | None = None
 
     def __call__(self, observations) -> dict:
         env = self.env
         base = self.base(env)(observations)
         joints = self._candidates(base)
+        self.values = None
         if len(joints) == 1:
             return base
         scores = [self._finish(joint) for joint in joints]
+        agent = env.possible_agents[env.mode.task_book().idle_cranes()[0]]
+        values: dict[int, int] = {}
+        for joint, score in zip(joints, scores, strict=True):  # a crane action's best copy
+            values[joint[agent]] = min(score, values.get(joint[agent], score))
+        self.values = (agent, values)
         return joints[int(np.argmin(scores))]  # argmin: the first of equals, the planner's
 
     def _candidates(self, base: dict) -> list[dict]:

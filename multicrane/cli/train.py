@@ -106,6 +106,9 @@ def register(sub) -> None:
     p.add_argument("--imitate-demos", default=None, metavar="FILE.npz",
                    help="with --imitate: keep the teacher's episodes in this file (read if it "
                    "holds the same setting, else written): seeds can share them")
+    p.add_argument("--imitate-soft", type=float, default=None, metavar="TAU",
+                   help="with --imitate lookahead: fit softmax(-(makespan - best) / TAU) over "
+                   "its candidates' makespans instead of its one choice (default: off)")
     p.add_argument("--dagger", type=int, default=0, metavar="ROUNDS",
                    help="with --imitate (set policy): DAgger rounds after it, the teacher "
                    "labelling the policy's own episodes (default 0; docs/training.md)")
@@ -115,6 +118,9 @@ def register(sub) -> None:
     p.add_argument("--round-episodes", type=int, default=32,
                    help="with --dagger or --expert-iteration: episodes labelled per round "
                    "(default 32)")
+    p.add_argument("--clone-weight", type=float, default=0.0, metavar="W",
+                   help="with --imitate and --imitate-demos: after every PPO update, cloning "
+                   "steps on the teacher's rows, their gradient times W (default 0: none)")
     p.add_argument("--keep-best", action="store_true",
                    help="keep the model of the curve point with the best return on validation "
                    "episodes (reset seeds 2,000,000...; needs --eval-every)")  # fmt: skip
@@ -191,10 +197,12 @@ def build_config(args: argparse.Namespace):
         imitate_episodes=args.imitate_episodes,
         imitate_epochs=args.imitate_epochs,
         imitate_demos=args.imitate_demos,
+        imitate_soft=args.imitate_soft,
         dagger=args.dagger,
         expert_iteration=args.expert_iteration,
         round_episodes=args.round_episodes,
         keep_best=args.keep_best,
+        clone_weight=args.clone_weight,
     )
 
 

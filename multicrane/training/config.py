@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -62,7 +63,10 @@ class TrainConfig:
     (``multicrane.training.imitation``): ``imitate_episodes`` teacher episodes,
     ``imitate_epochs`` passes over them; ``imitate_demos``: a ``.npz`` file that keeps them
     (read when it exists and was made for the same setting, else written), so that several
-    seeds share one set of teacher episodes. ``dagger`` (set policy, with ``imitate``): that
+    seeds share one set of teacher episodes. ``imitate_soft`` (with ``imitate="lookahead"``):
+    fit soft targets at this temperature (in makespan steps) over the look-ahead's values of
+    its candidates instead of its one choice (``multicrane.training.soft_targets``; None: the
+    choice). ``dagger`` (set policy, with ``imitate``): that
     many DAgger rounds after the imitation, each labelling ``round_episodes`` episodes of
     the policy with the teacher's choices (``multicrane.training.dagger``);
     ``expert_iteration``: that many rounds after those, each distilling ``round_episodes``
@@ -71,7 +75,9 @@ class TrainConfig:
     play ``eval_episodes`` validation episodes (reset seeds 2,000,000 ...; with a curriculum,
     one on each of as many train sites outside its pools) and keep the model with the best
     validation return; the run's final model is that one (early stopping; the curve shows
-    every point).
+    every point). ``clone_weight`` (with ``imitate`` and ``imitate_demos``): after every PPO
+    update, cloning steps on the teacher's rows weighted by it, keeping PPO near the
+    imitated policy (``multicrane.training.clone_term``; 0: none).
     """
 
     scenario: str = "E2S2"
@@ -104,10 +110,12 @@ class TrainConfig:
     imitate_episodes: int = 64
     imitate_epochs: int = 10
     imitate_demos: str | None = None
+    imitate_soft: float | None = None
     dagger: int = 0
     expert_iteration: int = 0
     round_episodes: int = 32
     keep_best: bool = False
+    clone_weight: float = 0.0
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -158,6 +166,7 @@ class TrainConfig:
             )
         self._check_set_policy()
         self._check_imitation()
+        check_clone_weight(self.clone_weight, self.imitate, self.imitate_demos)
         self._check_keep_best()
         self._check_events()
         from multicrane.envs.crane_env import REWARDS
@@ -234,6 +243,8 @@ class TrainConfig:
             for name in ("imitate_demos", "dagger", "expert_iteration"):
                 if getattr(self, name):
                     raise ConfigError(f"{name}={getattr(self, name)!r}: needs imitate")
+            if self.imitate_soft is not None:
+                raise ConfigError(f"imitate_soft={self.imitate_soft!r}: needs imitate")
             return
         if not isinstance(self.imitate, str) or not self.imitate:
             raise ConfigError(f"imitate={self.imitate!r}: must be a teacher policy's name")
@@ -244,6 +255,15 @@ class TrainConfig:
         for name in ("dagger", "expert_iteration"):
             if getattr(self, name) and self.policy != "set":
                 raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
+        soft = self.imitate_soft
+        if soft is not None:
+            if isinstance(soft, bool) or not isinstance(soft, int | float) or not soft >= 0:
+                raise ConfigError(f"imitate_soft={soft!r}: must be a temperature >= 0")
+            if self.imitate != "lookahead":
+                raise ConfigError(
+                    f"imitate_soft={soft!r}: needs imitate='lookahead' (the teacher that values "
+                    "its candidates)"
+                )
 
     def _check_events(self) -> None:
         if self.events is None:
@@ -302,3 +322,23 @@ class TrainConfig:
         """``key: mine != other`` for each differing field."""
         a, b = self.to_dict(), other.to_dict()
         return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]
+
+
+def check_clone_weight(weight, imitate, demos) -> None:
+    """``ConfigError`` unless ``weight`` is a finite number >= 0, and, when above 0, the run
+    imitates a teacher (``imitate``) and keeps its rows in a file (``demos``)."""
+    if (
+        isinstance(weight, bool)
+        or not isinstance(weight, int | float)
+        or not (math.isfinite(weight) and weight >= 0)
+    ):
+        raise ConfigError(f"clone_weight={weight!r}: must be a finite number >= 0")
+    if weight > 0 and imitate is None:
+        raise ConfigError(
+            f"clone_weight={weight!r}: needs imitate (the teacher whose rows it clones)"
+        )
+    if weight > 0 and demos is None:
+        raise ConfigError(
+            f"clone_weight={weight!r}: needs imitate_demos (the file of the teacher's rows, "
+            "read again for PPO and on resume)"
+        )

@@ -76,10 +76,18 @@ def round_seed(run_seed: int, tag: str, round_: int) -> int:
 
 
 def merge(a: Demonstrations, b: Demonstrations) -> Demonstrations:
-    """Every row of ``a`` then every row of ``b``."""
+    """Every row of ``a`` then every row of ``b`` (values: NaN for rows without them)."""
     arrays = {name: np.concatenate([getattr(a, name), getattr(b, name)])
               for name in ("observations", "masks", "actions", "returns")}  # fmt: skip
+    if a.values is not None or b.values is not None:
+        arrays["values"] = np.concatenate([_values(a), _values(b)])
     return Demonstrations(**arrays, makespans=a.makespans + b.makespans)
+
+
+def _values(demos: Demonstrations) -> np.ndarray:
+    if demos.values is not None:
+        return demos.values
+    return np.full(demos.masks.shape, np.nan, dtype=np.float32)
 
 
 def rounds_file(demos_path: str | None, tag: str, seed: int, round_: int) -> Path | None:
@@ -129,7 +137,7 @@ def label_round(cfg, params: dict, make_teacher: Callable, meta: dict, tag: str,
     venv.seed(seed)
     th.manual_seed(seed)  # the sampling copies' draws
     labelled = demonstrate(venv, make_teacher, cfg.round_episodes, params["gamma"],
-                           make_learner=make_learner)  # fmt: skip
+                           make_learner=make_learner, values="values" in meta)  # fmt: skip
     venv.close()
     if path is not None:
         save_demos(labelled, path, meta)
@@ -162,7 +170,8 @@ def improve(cfg, params: dict, policy, make_teacher: Callable, demos: Demonstrat
             teacher = guided_teacher(make_teacher, policy)
             labelled = label_round(cfg, params, teacher, meta, tag, round_, log=log)
             data = expert = labelled if expert is None else merge(expert, labelled)
-        history = clone(policy, data, cfg.imitate_epochs, seed=cfg.seed + len(rounds))
+        history = clone(policy, data, cfg.imitate_epochs, seed=cfg.seed + len(rounds),
+                        soft=cfg.imitate_soft)  # fmt: skip
         point = {"round": f"{tag}-{round_}", **validate(policy, cfg), "rows": len(data),
                  "played": "learner" if tag == "dagger" else "teacher",
                  "played_makespan_mean": _mean(labelled.makespans),

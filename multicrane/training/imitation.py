@@ -11,13 +11,15 @@ demonstrations).
   level: the training run's own environments and reward, so the critic's targets are the
   learner's) and keeps every real crane row: the observation (padded for the set policy),
   the mask, the teacher's action and the discounted return that followed under the
-  learner's (shaped) reward.
+  learner's (shaped) reward; with ``values=True`` also a search teacher's makespans of its
+  candidates (``multicrane.training.soft_targets``).
 - ``save`` / ``load`` keep them in a ``.npz`` file with what they were made for, so that
   several training seeds can share one (expensive) set of teacher episodes.
 - ``multicrane.training.teaching.imitate`` is the step of a training run that uses them.
 - ``clone`` fits the policy to them: cross-entropy of the teacher's actions under the masked
   logits (the actor) plus the squared error of the value on the returns, scaled by their
-  variance (the critic, so that PPO's first updates do not start from a random baseline).
+  variance (the critic, so that PPO's first updates do not start from a random baseline);
+  with ``soft=tau``, cross-entropy against the soft targets of the rows' values instead.
 
 A teacher is ``make_teacher(env, seed) -> policy`` with ``policy(observations) -> {agent:
 action}`` for the run's ``MultiCraneEnv``, a policy of ``policies.factory`` such as
@@ -40,6 +42,7 @@ import torch as th
 
 from multicrane.files import write_atomic
 from multicrane.tasks.book import exclusive_masks, task_list
+from multicrane.training import soft_targets
 
 DEMO_STREAM = 2  # the demonstration copies' seed stream: [run seed, DEMO_STREAM]
 
@@ -53,6 +56,7 @@ class Demonstrations:
     actions: np.ndarray  # (R,) int64: the teacher's
     returns: np.ndarray  # (R,) float32: discounted return-to-go of the learner's reward
     makespans: list[int | None]  # per finished episode (None: hit the step limit)
+    values: np.ndarray | None = None  # (R, n_actions) float32: candidates' makespans, else NaN
 
     def __len__(self) -> int:
         return len(self.actions)
@@ -75,6 +79,8 @@ def save(demos: Demonstrations, path: str | Path, meta: dict) -> None:
     compressed ``.npz`` file, atomically."""
     buffer = io.BytesIO()
     arrays = {name: getattr(demos, name) for name in ARRAYS}
+    if demos.values is not None:
+        arrays["values"] = demos.values
     makespans = [-1 if m is None else m for m in demos.makespans]
     np.savez_compressed(buffer, **arrays, makespans=np.array(makespans, dtype=np.int64),
                         meta=np.array(json.dumps(meta, sort_keys=True)))  # fmt: skip
@@ -84,17 +90,19 @@ def save(demos: Demonstrations, path: str | Path, meta: dict) -> None:
 
 def load(path: str | Path, meta: dict) -> Demonstrations:
     """The demonstrations of a file written by ``save`` for the same ``meta`` (the stored
-    ``seed`` aside: any seed's teacher episodes serve); ``DemonstrationsError`` names the
-    file and what differs."""
+    ``seed`` aside: any seed's teacher episodes serve, and a file with ``values`` serves a run
+    that does not ask for them); ``DemonstrationsError`` names the file and what differs."""
     try:
         with np.load(path, allow_pickle=False) as data:
             stored = json.loads(str(data["meta"]))
             arrays = {name: data[name] for name in ARRAYS}
+            arrays["values"] = data["values"] if "values" in data.files else None
             makespans = [None if m < 0 else int(m) for m in data["makespans"]]
     except (OSError, KeyError, ValueError) as exc:
         raise DemonstrationsError(f"{path}: not a demonstrations file ({exc})") from None
+    ignore = {"seed"} | ({"values"} - set(meta))
     differ = sorted(k for k in set(stored) | set(meta)
-                    if k != "seed" and stored.get(k) != meta.get(k))  # fmt: skip
+                    if k not in ignore and stored.get(k) != meta.get(k))  # fmt: skip
     if differ:
         what = "; ".join(f"{k}: file {stored.get(k)!r} != run {meta.get(k)!r}" for k in differ)
         raise DemonstrationsError(f"{path}: demonstrations of another setting ({what})")
@@ -107,13 +115,15 @@ def demonstration_seed(run_seed: int) -> int:
 
 
 def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
-                make_learner: Callable | None = None) -> Demonstrations:  # fmt: skip
+                make_learner: Callable | None = None,
+                values: bool = False) -> Demonstrations:  # fmt: skip
     """``episodes`` finished teacher episodes on ``venv``'s copies (a ``CraneVecEnv`` or
     ``SetVecEnv``, seeded by the caller); episodes still running when the last one ends are
     left out. With ``make_learner(env, copy) -> act`` (made per episode; ``act(rows, masks)
     -> actions`` for the copy's real crane rows) the learner's actions are played and the
     teacher only labels the states they lead to (DAgger, ``multicrane.training.dagger``);
-    the returns are then the learner's."""
+    the returns are then the learner's. ``values``: also keep the teacher's makespans of its
+    candidates (``soft_targets.record``; a search teacher)."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
     rows = venv.n_agents  # SB3 rows per copy (a SetVecEnv's spare rows included)
@@ -121,12 +131,14 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
     teachers: list = [None] * venv.n_copies
     learners: list = [None] * venv.n_copies
     log: list[tuple] = []  # per round: obs, masks, actions, rewards, dones, real rows
+    valued: list[np.ndarray] | None = [] if values else None  # per round: candidates' values
     makespans: list[int | None] = []
     while len(makespans) < episodes:
         masks = venv.action_masks()
         actions = np.zeros(venv.num_envs, dtype=np.int64)
         played = actions if make_learner is None else np.zeros_like(actions)
         real = np.zeros(venv.num_envs, dtype=bool)
+        grid = np.full(masks.shape, np.nan, dtype=np.float32) if values else None
         for c, env in enumerate(venv.envs):
             if teachers[c] is None:
                 teachers[c] = make_teacher(env, None)
@@ -138,16 +150,20 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
             if learners[c] is not None:  # before the labels' exclusive masks change ``masks``
                 played[block] = learners[c](obs[block], masks[block])
             _exclusive(env, masks, actions, block)
+            if values:
+                soft_targets.record(teachers[c], env.possible_agents, masks, block, grid)
         venv.step_async(played)
         after, rewards, dones, infos = venv.step_wait()
         log.append((obs, masks, actions, rewards, dones, real))
+        if values:
+            valued.append(grid)
         for c in range(venv.n_copies):
             if dones[c * rows]:  # the copy's episode ended (and the copy was reset)
                 info = infos[c * rows]
                 makespans.append(info["episode"]["l"] if info["is_success"] else None)
                 teachers[c] = learners[c] = None
         obs = after
-    return _rows(log, gamma, makespans[:episodes])
+    return _rows(log, gamma, makespans[:episodes], valued)
 
 
 def _exclusive(env, masks: np.ndarray, actions: np.ndarray, block: slice) -> None:
@@ -158,9 +174,10 @@ def _exclusive(env, masks: np.ndarray, actions: np.ndarray, block: slice) -> Non
         masks[block], actions[block] = exclusive_masks(masks[block], actions[block], tasks)
 
 
-def _rows(log: list[tuple], gamma: float, makespans: list) -> Demonstrations:
+def _rows(log: list[tuple], gamma: float, makespans: list,
+          values: list[np.ndarray] | None = None) -> Demonstrations:  # fmt: skip
     """Discounted returns-to-go per row stream (backwards), then the real rows of finished
-    episodes."""
+    episodes (and their ``values``, one array per round, if given)."""
     rewards = np.stack([x[3] for x in log])
     dones = np.stack([x[4] for x in log])
     keep = np.stack([x[5] for x in log])
@@ -179,6 +196,7 @@ def _rows(log: list[tuple], gamma: float, makespans: list) -> Demonstrations:
         actions=np.concatenate([x[2] for x in log])[pick],
         returns=returns.ravel()[pick].astype(np.float32),
         makespans=makespans,
+        values=None if values is None else np.concatenate(values)[pick],
     )
 
 
@@ -190,16 +208,21 @@ def clone(
     learning_rate: float = 1e-3,
     value_coef: float = 0.5,
     seed: int = 0,
+    soft: float | None = None,
 ) -> list[dict]:
     """Fit ``policy`` (a maskable actor-critic) to ``demos`` (see the module doc); one dict of
     losses per epoch, the last with ``agreement``: the share of decision rows whose greedy
-    action is the teacher's."""
+    action is the teacher's. ``soft``: the temperature of soft targets over the rows'
+    candidate values (``soft_targets.targets``; None: the teacher's actions)."""
     if epochs < 1:
         raise ValueError(f"epochs must be at least 1, got {epochs}")
     optimizer = th.optim.Adam(policy.parameters(), lr=learning_rate)
     scale = max(float(demos.returns.std()), 1.0) ** 2
     rng = np.random.default_rng([int(seed), DEMO_STREAM])
     n = len(demos)
+    target = None
+    if soft is not None:
+        target = soft_targets.targets(demos.values, demos.actions, demos.masks.shape[1], soft)
     history = []
     policy.set_training_mode(True)
     for epoch in range(epochs):
@@ -208,10 +231,10 @@ def clone(
         for start in range(0, n, batch_size):
             idx = order[start : start + batch_size]
             obs = th.as_tensor(demos.observations[idx])
-            values, log_prob, _ = policy.evaluate_actions(
-                obs, th.as_tensor(demos.actions[idx]), action_masks=demos.masks[idx]
+            batch_target = None if target is None else target[idx]
+            values, actor = soft_targets.actor_loss(
+                policy, obs, demos.actions[idx], demos.masks[idx], batch_target
             )
-            actor = -log_prob.mean()
             critic = ((values.flatten() - th.as_tensor(demos.returns[idx])) ** 2).mean() / scale
             loss = actor + value_coef * critic
             optimizer.zero_grad()

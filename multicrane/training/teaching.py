@@ -39,18 +39,22 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
             "episodes": cfg.imitate_episodes, "reward": cfg.reward, "events": cfg.events,
             "max_steps": cfg.max_steps, "shaping": cfg.shaping_weight, "shaping_gamma": gamma,
             "gamma": params["gamma"], "seed": seed, "claims": "exclusive"}  # fmt: skip
+    soft = cfg.imitate_soft is not None
+    if soft:  # the rows also keep the teacher's values of its candidates (soft targets)
+        meta["values"] = "candidate makespans"
     path = cfg.imitate_demos
     if path is not None and Path(path).exists():
         demos = load(path, meta)
         log(f"{cfg.name}: demonstrations from {path}")
     else:
         venv.seed(seed)
-        demos = demonstrate(venv, make_teacher, cfg.imitate_episodes, params["gamma"])
+        demos = demonstrate(venv, make_teacher, cfg.imitate_episodes, params["gamma"],
+                            values=soft)  # fmt: skip
         if path is not None:
             save(demos, path, meta)
     venv.close()
     collected = time.perf_counter() - start
-    history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed)
+    history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed, soft=cfg.imitate_soft)
     finished = [m for m in demos.makespans if m is not None]
     summary = {
         "teacher": cfg.imitate,
@@ -60,6 +64,8 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
         "teacher_finished": len(finished),
         "rows": len(demos),
         "decision_rows": int(demos.decisions.sum()),
+        "soft_tau": cfg.imitate_soft,
+        "valued_rows": None if demos.values is None else int(valued(demos).sum()),
         "history": history,
         "agreement": history[-1]["agreement"],
         "collect_seconds": round(collected, 3),
@@ -74,3 +80,8 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
         summary["rounds"] = improve(cfg, params, policy, make_teacher, demos, meta, log)
         summary["seconds"] = round(time.perf_counter() - start, 3)
     return summary
+
+
+def valued(demos) -> np.ndarray:
+    """The rows whose label has a candidate value (the rows soft targets change)."""
+    return np.isfinite(demos.values[np.arange(len(demos)), demos.actions])

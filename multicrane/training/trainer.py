@@ -38,6 +38,7 @@ from multicrane.training.checkpoints import (
     remove_checkpoints,
     save_checkpoint,
 )
+from multicrane.training.clone_term import with_cloning
 from multicrane.training.config import ConfigError, TrainConfig
 from multicrane.training.run_envs import (
     evaluate_model,
@@ -286,12 +287,13 @@ class Run:
         self._session_start = time.perf_counter()
         interrupt = _Interrupt()
         monitor = _RunMonitor(self, stop_at, interrupt, progress_bar)
+        callback = with_cloning(self, monitor)  # monitor alone unless cfg.clone_weight
         remaining = self.cfg.total_steps - self.model.num_timesteps
         with interrupt.installed():
             if remaining > 0:
                 self.model.learn(
                     remaining,
-                    callback=monitor,
+                    callback=callback,
                     reset_num_timesteps=fresh,
                     tb_log_name=self.cfg.algo,
                 )
@@ -333,7 +335,7 @@ class Run:
             "eval_seconds": round(time.perf_counter() - start, 3),
             "steps_per_second": round(self.model.num_timesteps / max(train_seconds, 1e-9), 1),
             "sessions": self.progress["sessions"],
-            **{k: self.progress[k] for k in ("imitation", "best") if k in self.progress},
+            **{k: self.progress[k] for k in ("imitation", "best", "clone") if k in self.progress},
             **_curriculum(self.venv),
             "versions": versions(),
             "python": platform.python_version(),
