@@ -56,13 +56,18 @@ def targets(values: np.ndarray | None, actions: np.ndarray, n_actions: int, tau:
     if not wait:
         values = values.copy()
         values[actions != 0, 0] = np.nan
-    soft = np.isfinite(values[rows, actions])
+    soft = valued_rows(values, actions)
     v = values[soft].astype(np.float64)
     known = np.isfinite(v)
     best = np.where(known, v, np.inf).min(1, keepdims=True)
     weights = np.where(known, np.exp(-(np.where(known, v, best) - best) / tau), 0.0)
     out[soft] = weights / weights.sum(1, keepdims=True)
     return out
+
+
+def valued_rows(values: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """The rows whose label has a candidate value (the rows soft targets change)."""
+    return np.isfinite(values[np.arange(len(actions)), actions])
 
 
 def evaluate(policy, obs: th.Tensor, masks: np.ndarray) -> tuple[th.Tensor, th.Tensor]:

@@ -17,6 +17,7 @@ import numpy as np
 
 from multicrane.training.dagger import improve
 from multicrane.training.imitation import clone, demonstrate, demonstration_seed, load, save
+from multicrane.training.soft_targets import valued_rows
 
 
 def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dict:
@@ -65,7 +66,9 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
         "rows": len(demos),
         "decision_rows": int(demos.decisions.sum()),
         "soft_tau": cfg.imitate_soft,
-        "valued_rows": None if demos.values is None else int(valued(demos).sum()),
+        "valued_rows": (
+            None if demos.values is None else int(valued_rows(demos.values, demos.actions).sum())
+        ),
         "history": history,
         "agreement": history[-1]["agreement"],
         "collect_seconds": round(collected, 3),
@@ -80,8 +83,3 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
         summary["rounds"] = improve(cfg, params, policy, make_teacher, demos, meta, log)
         summary["seconds"] = round(time.perf_counter() - start, 3)
     return summary
-
-
-def valued(demos) -> np.ndarray:
-    """The rows whose label has a candidate value (the rows soft targets change)."""
-    return np.isfinite(demos.values[np.arange(len(demos)), demos.actions])
