@@ -21,11 +21,24 @@ then decides in under a millisecond.
 
 A site with events is refused: the copy holds the episode's whole event schedule, so the
 look-ahead would see late components and breakdowns before they happen.
+
+A policy-guided search: with ``guide`` (a trained task-level model's policy, e.g.
+``policies.make("lookahead", env, guide="runs/hall-s0")`` or ``lookahead:guide=runs/hall-s0``
+on the command line) the first idle crane's candidates are its allowed tasks in the order of
+the learned policy's scores instead of the shortest static paths, and the learned policy's own
+joint action is one more candidate; the rollouts still judge (docs/marl-results.md, "Search at
+decision time").
+
+A time budget: with ``budget`` (seconds per round) the search stops trying candidates once the
+next rollout would likely not end within it (the round's mean rollout so far as its cost; the
+planner's own joint action is always tried): a planner for real time, whose choices then
+depend on the machine's speed (no budget, the default, is deterministic).
 """
 
 from __future__ import annotations
 
 import copy
+import time
 
 import numpy as np
 
@@ -42,10 +55,16 @@ class TaskLookahead:
     go to the prioritized planner that proposes and finishes. ``base``: another base policy
     in its place, ``base(env) -> policy(observations) -> joint action`` (made for each copy
     and for the round itself, whose observations may hold only the masks), e.g. a learned
-    policy (expert iteration, ``multicrane.training.expert_iteration``)."""
+    policy (expert iteration, ``multicrane.training.expert_iteration``). ``guide``: a policy
+    that proposes the candidates (see the module doc): ``guide(env, seed)`` makes it, and it
+    answers ``scores(observations)`` (one row per crane, its actions' scores) besides
+    ``(observations) -> joint action``, as a trained model's policy
+    (``multicrane.training.model_policy``) does. ``budget``: seconds per round (see the
+    module doc)."""
 
     def __init__(self, env, seed=None, candidates: int = 4, max_searches: int = 8,
-                 rank: str = "list", base=None):  # fmt: skip
+                 rank: str = "list", base=None, guide=None, budget: float | None = None
+                 ):  # fmt: skip
         self.env, _ = _book(env)
         if self.env.sim.schedule is not None or self.env.observation_layout.events is not None:
             raise ValueError(
@@ -54,10 +73,17 @@ class TaskLookahead:
             )
         if not isinstance(candidates, int) or candidates < 0:
             raise ValueError(f"candidates={candidates!r}: must be an integer >= 0")
+        if budget is not None and not (isinstance(budget, int | float) and budget > 0):
+            raise ValueError(f"budget={budget!r}: seconds per round, a number > 0")
         self.seed = seed
         self.candidates = candidates
+        self.budget = budget
         self.options = {"max_searches": max_searches, "rank": rank}
         self.base = base or (lambda env: TaskPrioritized(env, **self.options))
+        self.guide = None if guide is None else guide(self.env, seed)
+        if self.guide is not None and not hasattr(self.guide, "scores"):
+            raise ValueError(f"guide={guide!r}: a trained task-level model's policy (a run "
+                             "directory), which scores every crane's actions")  # fmt: skip
         self.rollouts = 0  # finished copies so far (its cost)
         # The last round's search values: (the first idle crane's agent, {its action: the
         # makespan its copy finished at}), None when the round compared nothing; imitation
@@ -65,13 +91,14 @@ class TaskLookahead:
         self.values: tuple[str, dict[int, int]] | None = None
 
     def __call__(self, observations) -> dict:
+        began = time.perf_counter()
         env = self.env
         base = self.base(env)(observations)
-        joints = self._candidates(base)
+        joints = self._candidates(base, observations)
         self.values = None
         if len(joints) == 1:
             return base
-        scores = [self._finish(joint) for joint in joints]
+        scores = self._scores(joints, began)
         agent = env.possible_agents[env.mode.task_book().idle_cranes()[0]]
         values: dict[int, int] = {}
         for joint, score in zip(joints, scores, strict=True):  # a crane action's best copy
@@ -79,8 +106,24 @@ class TaskLookahead:
         self.values = (agent, values)
         return joints[int(np.argmin(scores))]  # argmin: the first of equals, the planner's
 
-    def _candidates(self, base: dict) -> list[dict]:
-        """The planner's joint action, then the first idle crane's alternatives."""
+    def _scores(self, joints: list[dict], began: float) -> list[int]:
+        """Each joint action's finishing makespan on a copy; with a budget, those that the
+        time left would likely not cover are not played (``UNFINISHED``)."""
+        if self.budget is None:
+            return [self._finish(joint) for joint in joints]
+        scores = [self._finish(joints[0])]  # the planner's own, always
+        for joint in joints[1:]:
+            spent = time.perf_counter() - began
+            if spent * (1 + 1 / len(scores)) > self.budget:  # spent + the mean rollout
+                scores.append(UNFINISHED)
+            else:
+                scores.append(self._finish(joint))
+        return scores
+
+    def _candidates(self, base: dict, observations) -> list[dict]:
+        """The planner's joint action, (guided) the learned policy's, then the first idle
+        crane's alternatives: its allowed tasks in the guide's order or nearest first, and
+        waiting."""
         env = self.env
         book = env.mode.task_book()
         idle = book.idle_cranes()
@@ -89,10 +132,17 @@ class TaskLookahead:
         crane = idle[0]
         agent = env.possible_agents[crane]
         allowed = np.flatnonzero(book.allowed()[crane])
-        nearest = allowed[np.argsort(book.static_len[crane][allowed], kind="stable")]
         out = [base]
+        if self.guide is None:
+            order = allowed[np.argsort(book.static_len[crane][allowed], kind="stable")]
+        else:
+            scores = self.guide.scores(observations)[list(observations).index(agent)]
+            order = allowed[np.argsort(-scores[1 + allowed], kind="stable")]
+            own = self.guide(observations)
+            if own != base:
+                out.append(own)
         tasks = book.tasks
-        for action in [1 + int(p) for p in nearest[: self.candidates]] + [0]:
+        for action in [1 + int(p) for p in order[: self.candidates]] + [0]:
             clash = tasks.conflicts(action - 1) if action else np.zeros(len(tasks), dtype=bool)
             # Another crane the planner gave a task of the same component or target waits.
             joint = {a: (0 if a != agent and x and clash[x - 1] else x) for a, x in base.items()}

@@ -17,8 +17,11 @@ directory or of its ``model.zip`` (needs the ``train`` extra; the model acts gre
 mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything
 else the single-agent benchmark mode.
 ``options`` go to the policy's constructor (e.g. ``rank="nearest"`` for ``prioritized``,
-``patience`` for ``greedy``, ``deterministic`` and, in the multi-agent mode, ``break_waits``
-for a trained model: ``multicrane.training.model_policy``).
+``patience`` for ``greedy``, ``candidates``, ``budget`` and ``guide`` (a run directory)
+for ``lookahead``, ``deterministic`` and, in the multi-agent mode, ``break_waits`` for a trained
+model: ``multicrane.training.model_policy``). A name may carry them itself, as the command
+line gives them: ``NAME:KEY=VALUE,KEY=VALUE`` (``lookahead:candidates=20``,
+``prioritized:rank=nearest``; ``split_spec``); the whole text is then the policy's label.
 
 Seeding rule. A policy is made for one episode, the one ``env.reset(seed=seed)`` starts.
 Whatever it draws at random comes from its own generator ``np.random.default_rng([seed, 1])``
@@ -48,6 +51,38 @@ TASK_NAMES = ("prioritized", "greedy", "random", "replanning", "lookahead")
 
 class PolicyError(ValueError):
     """A policy that cannot be used here; the message says why."""
+
+
+def split_spec(spec: str) -> tuple[str, dict[str, Any]]:
+    """The name and options of a policy given as ``NAME:KEY=VALUE,KEY=VALUE`` (see the module
+    doc): a value is read as an integer, a number, ``true``/``false``, or else kept as text;
+    a name that is an existing path is taken whole. ``PolicyError`` names a malformed option."""
+    text = str(spec)
+    if ":" not in text or Path(text).exists():
+        return text, {}
+    name, _, rest = text.partition(":")
+    options: dict[str, Any] = {}
+    for part in rest.split(","):
+        key, eq, value = (x.strip() for x in part.partition("="))
+        if not eq or not key.isidentifier() or not value:
+            raise PolicyError(f"policy {text!r}: option {part!r} is not KEY=VALUE "
+                              f"(e.g. lookahead:candidates=20)")  # fmt: skip
+        if key in options:
+            raise PolicyError(f"policy {text!r}: option {key!r} is given twice")
+        options[key] = _option_value(value)
+    return name, options
+
+
+def _option_value(text: str) -> Any:
+    """An option's value from the command line: int, float, bool, else the text itself."""
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
 
 
 def names(paper: bool) -> tuple[str, ...]:
@@ -127,15 +162,27 @@ class Factory:
     """``make_policy(env, seed)`` for one policy name; ``label`` names it in tables."""
 
     def __init__(self, name: str, paper: bool | None = None, **options):
-        self.name = str(name)
-        self.options = options
+        self.name, given = split_spec(name)
+        self.options = {**given, **options}
         self.model = None
         self.config = None
         self.label = self.name
         if self.name not in NAMES:
             self._load_model()
+        if given:
+            self.label = str(name)
+        if self.name == "lookahead" and isinstance(self.options.get("guide"), str | Path):
+            self.options["guide"] = self._guide(self.options["guide"])
         if paper is not None:
             self.check(paper)
+
+    def _guide(self, path) -> Factory:
+        """The trained model a look-ahead's ``guide`` names, loaded once."""
+        guide = Factory(str(path), paper=False)
+        if guide.model is None:
+            raise PolicyError(f"policy {self.label!r}: guide={str(path)!r} is not a trained "
+                              "model (a run directory of multicrane train)")  # fmt: skip
+        return guide
 
     def _load_model(self) -> None:
         path = Path(self.name)
@@ -182,9 +229,14 @@ class Factory:
     def __call__(self, env, seed: int | None = None):
         paper = not is_multi_agent(env)
         self.check(paper)
-        if self.model is None:
-            return _builtin(self.name, paper, env)(env, seed, **self.options)
-        return self._model_policy(env, paper)
+        try:
+            if self.model is None:
+                return _builtin(self.name, paper, env)(env, seed, **self.options)
+            return self._model_policy(env, paper)
+        except TypeError as exc:  # an option the policy does not take
+            if "unexpected keyword argument" not in str(exc):
+                raise
+            raise PolicyError(f"policy {self.label!r}: {exc}") from None
 
     def _model_policy(self, env, paper: bool):
         from multicrane.training.model_policy import model_policy

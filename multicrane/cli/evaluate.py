@@ -25,8 +25,10 @@ and seeds.
         --policy runs/e2s2-2c-maskable_ppo-s0 prioritized greedy random --episodes 50
     multicrane evaluate --scenario set:test-small --policy prioritized greedy --episodes 2
 
-A policy is optimal (paper mode), prioritized (multi-agent), greedy, random, or a training
-run directory (multicrane train --out; needs the 'train' extra). Every policy plays the same
+A policy is optimal (paper mode), prioritized (multi-agent), greedy, random, lookahead (task
+decisions), or a training run directory (multicrane train --out; needs the 'train' extra),
+with options as NAME:KEY=VALUE,... (lookahead:candidates=20, prioritized:rank=nearest; the
+look-ahead guided by a trained model: lookahead:guide=RUN_DIR). Every policy plays the same
 episodes: reset seeds --seed .. --seed + episodes - 1 (default: the evaluation seeds training
 uses, 1000000..). Trained models act greedily. Prints, per policy: mean return ± standard
 error over episodes, success rate, mean steps to finish (finished episodes), mean steps, and
@@ -49,7 +51,8 @@ def register(sub) -> None:
     p = sub.add_parser("evaluate", help="compare policies on the same seeds",
                        description=DESCRIPTION, **formatter())  # fmt: skip
     add_environment_args(p)
-    p.add_argument("--policy", nargs="+", required=True, help="names or run directories")
+    p.add_argument("--policy", nargs="+", required=True,
+                   help="names, run directories, NAME:KEY=VALUE,...")  # fmt: skip
     p.add_argument("--episodes", type=int, default=20)
     p.add_argument("--seed", type=int, default=None, help="first reset seed")
     p.add_argument("--json", type=Path, help="also write the results here")
@@ -204,7 +207,8 @@ def _pm(summary: dict) -> str:
 
 
 def format_table(rows: list[dict], paper: bool) -> str:
-    head = f"{'policy':<44} {'return':>18} {'success':>8} {'finish':>7} {'steps':>7}"
+    width = max([44] + [len(row["policy"]) for row in rows])  # a whole label, options and all
+    head = f"{'policy':<{width}} {'return':>18} {'success':>8} {'finish':>7} {'steps':>7}"
     if paper:
         head += f" {'gap':>8} {'gap %':>7}"
     lines = [head]
@@ -212,7 +216,7 @@ def format_table(rows: list[dict], paper: bool) -> str:
         s = row["summary"]
         finish = "-" if s["finish_steps_mean"] is None else f"{s['finish_steps_mean']:.1f}"
         line = (
-            f"{row['policy'][:44]:<44} {_pm(s)}"
+            f"{row['policy']:<{width}} {_pm(s)}"
             f"{s['success_rate']:>8.0%} {finish:>7} {s['steps_mean']:>7.1f}"
         )
         if paper:

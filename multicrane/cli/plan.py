@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from pathlib import Path
 
 from multicrane.cli import progress
@@ -62,7 +63,8 @@ def register(sub) -> None:
         "--policy",
         nargs="+",
         default=["prioritized"],
-        help="prioritized, greedy, random, optimal (paper), or a run directory",
+        help="prioritized, greedy, random, lookahead, optimal (paper), or a run directory; "
+        "options as NAME:KEY=VALUE,... (lookahead:candidates=20)",
     )
     add_decisions_arg(p)
     p.add_argument("--episodes", type=int, default=1)
@@ -84,18 +86,24 @@ def _num(x: float | None, spec: str) -> str:
     return "-" if x is None else format(x, spec)
 
 
-def header(multi: bool) -> str:
-    head = f"{'policy':<24} {'return':>18} {'success':>8} {'makespan':>9} {'steps':>8}"
+def header(multi: bool, width: int = 24) -> str:
+    """The table's head; ``width``: the policy column's (``label_width``)."""
+    head = f"{'policy':<{width}} {'return':>18} {'success':>8} {'makespan':>9} {'steps':>8}"
     if multi:
         head += f" {'util.':>6} {'blocked':>8} {'ms/step':>8}"
     return head
 
 
-def line(label: str, s: dict, multi: bool) -> str:
+def label_width(makers) -> int:
+    """The policy column's width: 24, or the longest label (a name with its options)."""
+    return max([24] + [len(make.label) for make in makers])
+
+
+def line(label: str, s: dict, multi: bool, width: int = 24) -> str:
     """One policy's row, from the summary of its episodes
     (``multicrane.episodes.rollout.summarise``)."""
     text = (
-        f"{label[:24]:<24} {s['return_mean']:>10.2f} ± {_num(s['return_sem'], '.2f'):<6}"
+        f"{label:<{width}} {s['return_mean']:>10.2f} ± {_num(s['return_sem'], '.2f'):<6}"
         f"{s['success_rate']:>8.0%} {_num(s.get('makespan_mean'), '.1f'):>9}"
         f" {s['steps_mean']:>8.1f}"
     )
@@ -181,7 +189,8 @@ def run(args: argparse.Namespace) -> int:
             if args.record or args.rrd or args.gantt or args.render or args.video:
                 return error("--record, --rrd, --gantt, --video and --render take one "
                              "scenario, not a set")
-            return run_set(args, makers, header(True), line)
+            width = label_width(makers)
+            return run_set(args, makers, header(True, width), partial(line, width=width))
         if args.paper:
             env = make_env(args.scenario)
         else:
@@ -191,11 +200,12 @@ def run(args: argparse.Namespace) -> int:
         multi = not args.paper
         seeds = list(range(args.seed, args.seed + args.episodes))
         print(describe(env))
-        print(header(multi))
+        width = label_width(makers)
+        print(header(multi, width))
         for make in makers:
             with progress.bar(len(seeds), make.label) as advance:
                 _, summary = evaluate(env, make, seeds, counting(advance))
-            print(line(make.label, summary, multi))
+            print(line(make.label, summary, multi, width))
         if args.render and multi:
             print(env.render())
         if args.record or args.rrd or args.gantt:

@@ -39,6 +39,8 @@ def register(sub) -> None:
     p.add_argument("--baseline", default="prioritized", help="the planner compared against")
     p.add_argument("--bound-time", type=float, default=10.0,
                    help="CP-SAT seconds per episode's bound (0: no bound)")  # fmt: skip
+    p.add_argument("--bound-workers", type=int, default=1,
+                   help="CP-SAT workers per bound (more prove the relaxation sooner)")  # fmt: skip
     p.add_argument("--sites", default=None, metavar="set:NAME",
                    help="the scenario set the episodes were played on (to bound them)")  # fmt: skip
     p.add_argument("--bounds", type=Path, default=None,
@@ -50,9 +52,10 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def episode_bounds(rows, time_limit: float, sites: str | None = None) -> list[int]:
-    """The proven makespan lower bound of every episode the rows played (one CP-SAT worker);
-    ``sites``: the ``set:NAME`` whose members the episodes' scenario names are."""
+def episode_bounds(rows, time_limit: float, sites: str | None = None, workers: int = 1
+                   ) -> list[int]:  # fmt: skip
+    """The proven makespan lower bound of every episode the rows played (``workers`` CP-SAT
+    workers); ``sites``: the ``set:NAME`` whose members the episodes' scenario names are."""
     from multicrane.bounds.makespan import lower_bound
 
     named = {}
@@ -62,7 +65,7 @@ def episode_bounds(rows, time_limit: float, sites: str | None = None) -> list[in
         named = {name.split("/")[-1]: scenario for name, scenario in resolve_set(sites)}
     return [
         lower_bound(named.get(e["scenario"], e["scenario"]), e["n_cranes"], e["seed"],
-                    time_limit, workers=1).value
+                    time_limit, workers=workers).value
         for e in rows[0]["episodes"]
     ]  # fmt: skip
 
@@ -99,8 +102,10 @@ def run(args: argparse.Namespace) -> int:
             return error(f"{args.bounds}: bounds of other episodes than {args.results}'s")
         bounds = saved["bounds"]
     elif args.bound_time > 0:
+        if args.bound_workers < 1:
+            return error(f"--bound-workers {args.bound_workers}: must be at least 1")
         try:
-            bounds = episode_bounds(rows, args.bound_time, args.sites)
+            bounds = episode_bounds(rows, args.bound_time, args.sites, args.bound_workers)
         except (multicrane.ScenarioError, ValueError) as exc:
             return error(f"{args.results}: cannot bound its episodes: {exc}")
     table = markdown_table(table_entries, args.baseline, bounds)

@@ -34,7 +34,8 @@ def register(sub) -> None:
     e = cmds.add_parser("evaluate", help="play a policy on every instance of a track")
     e.add_argument("version", help="v1, or a folder with a manifest.toml")
     e.add_argument("--track", required=True, help="small, small-reach, small-events, ...")
-    e.add_argument("--policy", required=True, help="a planner name or a training run directory")
+    e.add_argument("--policy", required=True,
+                   help="a planner, a training run directory; NAME:KEY=VALUE,...")  # fmt: skip
     e.add_argument("--decisions", choices=("motion", "task"), default=None,
                    help="default: task for lookahead, a run's own, else motion")  # fmt: skip
     e.add_argument("--name", help="the entry's policy name in the results (default: the "
@@ -91,7 +92,7 @@ def _resolve(name: str, decisions: str | None):
 
     make = policies.factory(name, paper=False)
     if decisions is None:
-        decisions = "task" if name in TASK_ONLY else trained_decisions(make)
+        decisions = "task" if make.name in TASK_ONLY else trained_decisions(make)
     training = None if make.config is None else training_block(name, make.config.to_dict())
     return make, make.label, decisions, training
 

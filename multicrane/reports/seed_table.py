@@ -90,7 +90,9 @@ def entries(rows: Sequence[Mapping]) -> list[Entry]:
                              f"the first policy {seeds[:3]}...: not the same episodes")  # fmt: skip
         spans = [e["makespan"] if e["success"] else None for e in eps]
         label = _RUN_LABEL.match(name)
-        stem = label["run"] if label else name.rstrip("/").split("/")[-1]
+        # a policy with options (``NAME:KEY=VALUE,...``; e.g. a search guided by a run
+        # directory) groups by the whole text, its run's seed suffix at the end
+        stem = label["run"] if label else name if ":" in name else name.rstrip("/").split("/")[-1]
         match = _SEED_SUFFIX.match(stem)
         key = match["prefix"] if match else name
         if label and match:

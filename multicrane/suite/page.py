@@ -175,8 +175,9 @@ def _entries(manifest: Manifest, track: str, collected: list, best: dict, bounds
 
 
 def entry_kind(results: dict[str, Any], planners: tuple[str, ...]) -> str:
-    """What made a results file's entry, one of ``KINDS`` (see the module doc)."""
-    if results["policy"] in planners:
+    """What made a results file's entry, one of ``KINDS`` (see the module doc); a planner
+    given with options (``lookahead:candidates=20``) is a planner."""
+    if str(results["policy"]).partition(":")[0] in planners:
         return "planner"
     if "training" in results:
         return "learned"

@@ -146,6 +146,12 @@ class SharedModelPolicy:
             self.loop.remember(batch, actions)
         return {a: int(x) for a, x in zip(agents, actions, strict=True)}
 
+    def scores(self, observations: dict) -> np.ndarray:
+        """Each crane's score of each action, one row per agent of ``observations`` in its
+        order (logits; ``BLOCKED`` where the mask forbids): what the greedy choice ranks,
+        and what a policy-guided search (``policies.lookahead``) orders its candidates by."""
+        return self._scores(*self._inputs(observations))
+
     def _inputs(self, observations: dict) -> tuple[np.ndarray, np.ndarray]:
         batch = np.stack([o["observation"] for o in observations.values()])
         masks = np.stack([o["action_mask"] for o in observations.values()]).astype(bool)

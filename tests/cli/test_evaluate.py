@@ -61,6 +61,23 @@ def test_policy_names_are_checked():
         factory("no/such/run", paper=False)
 
 
+def test_evaluate_program_takes_policies_with_options_and_prints_their_whole_labels(
+    tmp_path, capsys
+):
+    long = "prioritized:rank=nearest,max_searches=2"  # more than the 44 columns of a name
+    out = tmp_path / "ev.json"
+    assert main(["evaluate", "--scenario", "e3s2", "--cranes", "2", "--decisions", "task",
+                 "--episodes", "2", "--policy", "lookahead:candidates=1", long, "prioritized",
+                 "--json", str(out)]) == 0  # fmt: skip
+    printed = capsys.readouterr().out
+    assert "lookahead:candidates=1 " in printed and f"{long} " in printed
+    rows = json.loads(out.read_text())
+    assert [r["policy"] for r in rows] == ["lookahead:candidates=1", long, "prioritized"]
+    assert main(["evaluate", "--scenario", "e3s2", "--decisions", "task", "--episodes", "1",
+                 "--policy", "lookahead:candidates"]) != 0  # fmt: skip
+    assert "option 'candidates' is not KEY=VALUE" in capsys.readouterr().err
+
+
 @pytest.fixture(scope="module")
 def paper_run(tmp_path_factory):
     run_dir = tmp_path_factory.mktemp("runs") / "e1s1-ppo"

@@ -75,3 +75,23 @@ def test_lookahead_is_refused_where_it_cannot_play_fair(options, message):
 def test_bad_candidates_are_refused():
     with pytest.raises(ValueError, match="candidates"):
         TaskLookahead(task_env("e2s2", 2), candidates=-1)
+
+
+def test_a_budget_bounds_the_candidates_tried():
+    env = task_env("e3s2", 2)
+    planner = run_episode(env, policies.make("prioritized", env, seed=1), seed=1, record=True)
+    free = run_episode(env, policies.make("lookahead", env, seed=1), seed=1, record=True)
+    roomy = run_episode(env, policies.make("lookahead", env, seed=1, budget=1e6), seed=1,
+                        record=True)  # fmt: skip
+    tight = TaskLookahead(env, budget=1e-9)  # no time for anything but the planner's own
+    none_tried = run_episode(env, tight, seed=1, record=True)
+    assert roomy["actions"] == free["actions"] != planner["actions"]
+    assert none_tried["actions"] == planner["actions"]
+    # at most one rollout a round (the planner's joint action), against several without
+    assert 0 < tight.rollouts <= none_tried["decision_rounds"]
+
+
+@pytest.mark.parametrize("budget", [0, -1.0, "1", float("nan")])
+def test_a_bad_budget_is_refused(budget):
+    with pytest.raises(ValueError, match="budget"):
+        TaskLookahead(task_env("e2s2", 2), budget=budget)

@@ -4,6 +4,9 @@ the round and on every copy, and the search never expects to finish after its ba
 
 from __future__ import annotations
 
+import numpy as np
+import pytest
+
 import policies
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.episodes.rollout import run_episode
@@ -37,3 +40,69 @@ def test_a_guided_search_calls_its_base_and_finishes_no_later_than_it():
     assert guided["success"] and guided["steps"] <= greedy["steps"]
     assert env in made  # the round's own proposal
     assert sum(e is not env for e in made) == search.rollouts > 0  # one per copy finished
+
+
+class _FarthestFirst:
+    """A stand-in for a learned guide: it scores each crane's allowed tasks by their static
+    path length (the farthest best) and, as a policy, waits with every crane."""
+
+    def __init__(self, env):
+        self.env = env
+
+    def scores(self, observations) -> np.ndarray:
+        book = self.env.mode.task_book()
+        rows = np.full((len(observations), 1 + len(book.tasks)), -1e9)
+        for row, agent in enumerate(observations):
+            crane = self.env.possible_agents.index(agent)
+            rows[row, 1:] = book.static_len[crane]
+        return rows
+
+    def __call__(self, observations) -> dict:
+        return dict.fromkeys(observations, 0)
+
+
+def _first_round_tries(guide=None) -> tuple[set[int], list[int], list[int]]:
+    """The first idle crane's actions a 2-candidate search tries in the first round, and its
+    allowed tasks (as actions) farthest and nearest first."""
+    env = _env()
+    observations, _ = env.reset(seed=0)
+    search = TaskLookahead(env, candidates=2, guide=guide)
+    search(observations)
+    agent, values = search.values
+    book = env.mode.task_book()
+    crane = env.possible_agents.index(agent)
+    allowed = np.flatnonzero(book.allowed()[crane])
+    length = book.static_len[crane][allowed]
+    farthest = [1 + int(p) for p in allowed[np.argsort(-length, kind="stable")]]
+    nearest = [1 + int(p) for p in allowed[np.argsort(length, kind="stable")]]
+    return set(values), farthest, nearest
+
+
+def test_a_guide_chooses_the_candidates_and_adds_its_own_joint_action():
+    tried, farthest, nearest = _first_round_tries(lambda env, seed: _FarthestFirst(env))
+    assert set(farthest[:2]) <= tried and 0 in tried  # the guide's order, and its waiting
+    assert not set(nearest[:2]) <= tried - {farthest[0], farthest[1]}
+    unguided, _, _ = _first_round_tries()
+    assert set(nearest[:2]) <= unguided and not set(farthest[:2]) <= unguided
+
+
+def test_a_guide_that_scores_nothing_is_refused():
+    with pytest.raises(ValueError, match="guide=.*scores every crane's actions"):
+        TaskLookahead(_env(), guide=lambda env, seed: TaskGreedy(env))
+
+
+def test_a_guided_search_plays_legally_the_best_copys_joint_action():
+    env = _env()
+    search = TaskLookahead(env, candidates=2, guide=lambda env, seed: _FarthestFirst(env))
+    observations, _ = env.reset(seed=3)
+    rounds = 0
+    while env.agents:
+        joint = search(observations)
+        for agent, action in joint.items():
+            assert observations[agent]["action_mask"][action]
+        if search.values is not None:  # the joint action played is the best copy's
+            agent, values = search.values
+            assert values[joint[agent]] == min(values.values())
+            rounds += 1
+        observations, *_ = env.step(joint)
+    assert rounds > 0 and env.sim.state.n_assembled == len(env.scenario.components)

@@ -47,6 +47,19 @@ def test_run_directories_of_one_prefix_pool_into_one_learned_entry():
     assert (hall.finished, hall.episodes, hall.seeds_all_finished) == (5, 6, 1)
 
 
+def test_a_search_guided_by_run_directories_pools_by_its_whole_spec():
+    rows = [
+        _row("lookahead:candidates=8,guide=runs/hall-s0", [100, 110, 120]),
+        _row("lookahead:candidates=8,guide=runs/hall-s1", [90, 100, 110]),
+        _row("lookahead:candidates=4,guide=runs/hall-s0", [1, 2, 3]),
+        _row("lookahead:candidates=20", [4, 5, 6]),
+    ]
+    eight, four, planner = entries(rows)
+    assert eight.name == "lookahead:candidates=8,guide=runs/hall" and len(eight.seeds) == 2
+    assert four.name == "lookahead:candidates=4,guide=runs/hall" and len(four.seeds) == 1
+    assert planner.name == "lookahead:candidates=20" and not planner.learned
+
+
 def test_evaluate_labels_of_run_directories_pool_by_algorithm_and_prefix():
     rows = [
         _row("maskable_ppo (hall-s0)", [100, 110, 120]),
@@ -134,6 +147,13 @@ def test_command_bounds_every_episode(tmp_path, capsys):
     other.write_text(json.dumps([_row("prioritized", [40, 41], seeds=(0, 2))]))
     assert main(["seed-table", str(other), "--bounds", str(saved)]) != 0
     assert "bounds of other episodes" in capsys.readouterr().err
+    # Two CP-SAT workers prove the same bounds here (these relaxations are solved exactly).
+    two = tmp_path / "two.md"
+    assert main(["seed-table", str(path), "--bound-time", "5", "--bound-workers", "2",
+                 "--out", str(two)]) == 0  # fmt: skip
+    assert json.loads(two.with_suffix(".bounds.json").read_text())["bounds"] == bounds["bounds"]
+    assert main(["seed-table", str(path), "--bound-workers", "0"]) != 0
+    assert "--bound-workers 0: must be at least 1" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -27,6 +27,7 @@ def _results(policy: str, spans: list[int], **extra) -> dict:
 def test_entry_kind_tells_planners_learned_policies_and_the_search_apart():
     training = {"run": "r", "config": {"algo": "maskable_ppo"}}
     assert entry_kind(_results("greedy", [1] * 8), PLANNERS) == "planner"
+    assert entry_kind(_results("prioritized:rank=nearest", [1] * 8), PLANNERS) == "planner"
     assert entry_kind(_results("ppo-zero-shot", [1] * 8, training=training), PLANNERS) == (
         "learned"
     )
