@@ -98,7 +98,8 @@ def register(sub) -> None:
                    "makespan (-1 per simulated step; what the makespan tables measure)")
     p.add_argument("--imitate", default=None, metavar="POLICY",
                    help="set policy: fit it to this planner's choices before PPO "
-                   "(prioritized, lookahead; docs/training.md)")  # fmt: skip
+                   "(prioritized, lookahead, lookahead:candidates=20; docs/training.md)"
+                   )  # fmt: skip
     p.add_argument("--imitate-episodes", type=int, default=64,
                    help="with --imitate: the teacher's episodes (default 64)")
     p.add_argument("--imitate-epochs", type=int, default=10,
@@ -212,10 +213,11 @@ def teacher_of(cfg):
         return None
     import policies
 
-    if cfg.expert_iteration and cfg.imitate == "lookahead":  # a search it can guide
+    name, options = policies.split_spec(cfg.imitate)
+    if cfg.expert_iteration and name == "lookahead":  # a search it can guide
         from policies.lookahead import LookaheadTeacher
 
-        return LookaheadTeacher()
+        return LookaheadTeacher(**options)
     return policies.factory(cfg.imitate, paper=False)
 
 

@@ -259,7 +259,7 @@ class TrainConfig:
         if soft is not None:
             if isinstance(soft, bool) or not isinstance(soft, int | float) or not soft >= 0:
                 raise ConfigError(f"imitate_soft={soft!r}: must be a temperature >= 0")
-            if self.imitate != "lookahead":
+            if str(self.imitate).partition(":")[0] != "lookahead":  # with its options or not
                 raise ConfigError(
                     f"imitate_soft={soft!r}: needs imitate='lookahead' (the teacher that values "
                     "its candidates)"

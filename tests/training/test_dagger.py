@@ -231,3 +231,6 @@ def test_the_train_command_passes_the_rounds_and_a_search_teacher():
     assert isinstance(train_cli.teacher_of(cfg), LookaheadTeacher)
     cfg = train_cli.build_config(parser.parse_args(argv[:-4]))
     assert not isinstance(train_cli.teacher_of(cfg), LookaheadTeacher)  # the registry's
+    given = [x if x != "lookahead" else "lookahead:candidates=8" for x in argv]
+    teacher = train_cli.teacher_of(train_cli.build_config(parser.parse_args(given)))
+    assert isinstance(teacher, LookaheadTeacher) and teacher.options == {"candidates": 8}

@@ -125,6 +125,10 @@ def test_soft_imitation_option(tmp_path):
         TrainConfig("e3s2", **base, imitate="prioritized", imitate_soft=1.0)
     with pytest.raises(ConfigError, match="must be a temperature >= 0"):
         TrainConfig("e3s2", **base, imitate="lookahead", imitate_soft=-1.0)
+    with pytest.raises(ConfigError, match="needs imitate='lookahead'"):
+        TrainConfig("e3s2", **base, imitate="prioritized:rank=nearest", imitate_soft=1.0)
+    given = TrainConfig("e3s2", **base, imitate="lookahead:candidates=8", imitate_soft=1.0)
+    assert given.imitate_soft == 1.0  # the look-ahead with its options values its candidates
     cfg = TrainConfig("e3s3", **base, imitate="lookahead", imitate_soft=1.0, imitate_episodes=1,
                       imitate_epochs=2, reward="makespan", shaping=0.0, n_envs=1,
                       total_steps=16, eval_episodes=1, checkpoint_every=0,
