@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from multicrane.envs.decision_modes import task_level
+from multicrane.episodes import policy_spec
 from multicrane.episodes.rollout import is_multi_agent
 from policies.random_policy import RandomMoves, RandomPolicy
 
@@ -55,34 +56,11 @@ class PolicyError(ValueError):
 
 def split_spec(spec: str) -> tuple[str, dict[str, Any]]:
     """The name and options of a policy given as ``NAME:KEY=VALUE,KEY=VALUE`` (see the module
-    doc): a value is read as an integer, a number, ``true``/``false``, or else kept as text;
-    a name that is an existing path is taken whole. ``PolicyError`` names a malformed option."""
-    text = str(spec)
-    if ":" not in text or Path(text).exists():
-        return text, {}
-    name, _, rest = text.partition(":")
-    options: dict[str, Any] = {}
-    for part in rest.split(","):
-        key, eq, value = (x.strip() for x in part.partition("="))
-        if not eq or not key.isidentifier() or not value:
-            raise PolicyError(f"policy {text!r}: option {part!r} is not KEY=VALUE "
-                              f"(e.g. lookahead:candidates=20)")  # fmt: skip
-        if key in options:
-            raise PolicyError(f"policy {text!r}: option {key!r} is given twice")
-        options[key] = _option_value(value)
-    return name, options
-
-
-def _option_value(text: str) -> Any:
-    """An option's value from the command line: int, float, bool, else the text itself."""
-    if text.lower() in ("true", "false"):
-        return text.lower() == "true"
-    for kind in (int, float):
-        try:
-            return kind(text)
-        except ValueError:
-            pass
-    return text
+    doc; ``multicrane.episodes.policy_spec``): ``PolicyError`` names a malformed option."""
+    try:
+        return policy_spec.split_spec(spec)
+    except policy_spec.SpecError as exc:
+        raise PolicyError(str(exc)) from None
 
 
 def names(paper: bool) -> tuple[str, ...]:

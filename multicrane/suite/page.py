@@ -19,6 +19,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from multicrane.episodes.policy_spec import spec_name
 from multicrane.files import write_atomic
 from multicrane.suite.manifest import Manifest, SuiteError
 from multicrane.suite.results import gap, mean, pct, read_results, track_summary
@@ -177,7 +178,7 @@ def _entries(manifest: Manifest, track: str, collected: list, best: dict, bounds
 def entry_kind(results: dict[str, Any], planners: tuple[str, ...]) -> str:
     """What made a results file's entry, one of ``KINDS`` (see the module doc); a planner
     given with options (``lookahead:candidates=20``) is a planner."""
-    if str(results["policy"]).partition(":")[0] in planners:
+    if spec_name(results["policy"]) in planners:
         return "planner"
     if "training" in results:
         return "learned"

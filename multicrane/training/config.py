@@ -10,6 +10,7 @@ from typing import Any
 
 from multicrane.envs.decision_modes import DECISION_MODES, DEFAULT_DECISIONS, decision_mode
 from multicrane.envs.paper_env import PAPER_CONFIGS
+from multicrane.episodes.policy_spec import spec_name
 from multicrane.files import write_atomic
 
 CHECKPOINT = "checkpoint"  # the run directory's checkpoint folder (see training.trainer)
@@ -259,7 +260,7 @@ class TrainConfig:
         if soft is not None:
             if isinstance(soft, bool) or not isinstance(soft, int | float) or not soft >= 0:
                 raise ConfigError(f"imitate_soft={soft!r}: must be a temperature >= 0")
-            if str(self.imitate).partition(":")[0] != "lookahead":  # with its options or not
+            if spec_name(self.imitate) != "lookahead":  # with its options or not
                 raise ConfigError(
                     f"imitate_soft={soft!r}: needs imitate='lookahead' (the teacher that values "
                     "its candidates)"

@@ -83,3 +83,14 @@ def test_plan_prints_a_policy_with_options_under_its_whole_label(capsys):
                  "greedy"]) == 0  # fmt: skip
     rows = [r for r in capsys.readouterr().out.splitlines() if r.startswith(spec)]
     assert len(rows) == 1 and "100%" in rows[0]
+
+
+@pytest.mark.parametrize(
+    ("spec", "name"),
+    [("lookahead", "lookahead"), ("lookahead:candidates=20", "lookahead"),
+     ("prioritized:rank", "prioritized"), ("runs/x-s0", "runs/x-s0")],
+)  # fmt: skip
+def test_the_layers_below_read_the_name_alone(spec, name):
+    from multicrane.episodes.policy_spec import spec_name
+
+    assert spec_name(spec) == name  # a malformed option still names its policy
