@@ -14,9 +14,10 @@ assemble ``7``.
     while env.agents:
         observations, *_ = env.step(planner(observations))
 
-This module is the *assignment rule*; the execution (paths, the reservation table, checks,
-repairs and the motion actions) is the library's carrier (``multicrane.tasks.carrier``), which the
-task-level environment uses too (``policies.task_planners``).
+The *assignment rule* is the library's (``multicrane.tasks.priority_rule``), and so is the
+execution (paths, the reservation table, checks, repairs and the motion actions: the carrier,
+``multicrane.tasks.carrier``), which the task-level environment uses too
+(``policies.task_planners``); this module drives them in the motion-level claiming mode.
 
 **Events** (``MultiCraneEnv(events=...)``, docs/uncertainty.md): the carrier is
 ``multicrane.tasks.carrier_events.EventCarrier``. It notices a breakdown or a closure when it
@@ -53,40 +54,9 @@ with 4).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
-import numpy as np
-
-from multicrane.sim.simulator import NOBODY, Simulator
-from multicrane.tasks.carrier import Carrier
+from multicrane.sim.simulator import Simulator
 from multicrane.tasks.carrier_events import EventCarrier
-
-
-def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
-    """Ready (component, target) pairs, best first: ``(distance, comp, target)`` tuples over
-    each candidate's ready compatible targets not in ``taken`` that a pose of its shape
-    covers (``Carrier.pair_distances``: from the pick-up pose to the target's pose); ranked
-    by (list rank, distance, target) or (distance, component, target)."""
-    if not candidates:
-        return []
-    comps = np.asarray(candidates, dtype=np.int64)
-    dist = carrier.pair_distances()[comps]
-    open_ = np.asarray(carrier.sim.target_ready, dtype=bool)
-    open_[list(taken)] = False
-    rows, targets = np.nonzero((dist >= 0) & open_)
-    comp, d = comps[rows], dist[rows, targets]
-    if rank == "list":
-        order = np.lexsort((targets, d, np.array([list_rank[c] for c in comp.tolist()])))
-    else:
-        order = np.lexsort((targets, comp, d))
-    ranked = (d[order].tolist(), comp[order].tolist(), targets[order].tolist())
-    return list(zip(*ranked, strict=True))
-
-
-def check_rank(rank: str) -> str:
-    if rank not in ("list", "nearest"):
-        raise ValueError(f"rank must be 'list' or 'nearest', got {rank!r}")
-    return rank
+from multicrane.tasks.priority_rule import assign_in_rank, check_rank, ranked_pairs
 
 
 class PrioritizedPlanner:
@@ -172,38 +142,5 @@ class PrioritizedPlanner:
             carrier.reaches_pair, carrier.try_start,
         )  # fmt: skip
 
-
-def assign_in_rank(
-    sim: Simulator,
-    carrier: Carrier,
-    idle: list[int],
-    rank: str,
-    list_rank: dict[int, int],
-    max_searches: int,
-    eligible: Callable[[int, int, int], bool],
-    start: Callable[[int, int, int], bool],
-) -> None:
-    """The prioritized rule, shared by both decision levels: ready (component, target) pairs
-    best first; each goes to the first idle crane ``eligible(crane, comp, target)`` for it,
-    and ``start(crane, comp, target)`` (a space-time search) decides; each component, target
-    and crane is used once, and at most ``max_searches`` searches run in a round."""
-    candidates = [c for c in sim.claimable_components() if c not in carrier.plans]
-    if not candidates:
-        return
-    pairs = ranked_pairs(carrier, candidates, carrier.taken_targets(), rank, list_rank)
-    used_c: set[int] = set()
-    used_t: set[int] = set()
-    for _, comp, t in pairs:
-        if not idle or carrier.round_searches >= max_searches:
-            break
-        if comp in used_c or t in used_t:
-            continue
-        crane = next((k for k in idle if eligible(k, comp, t)), NOBODY)
-        if crane == NOBODY:
-            continue
-        if start(crane, comp, t):
-            idle.remove(crane)
-            used_c.add(comp)
-            used_t.add(t)
 
 __all__ = ["PrioritizedPlanner", "assign_in_rank", "ranked_pairs"]

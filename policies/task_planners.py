@@ -20,7 +20,8 @@ import numpy as np
 
 from multicrane.envs.decision_modes import task_level
 from multicrane.episodes.random_actions import random_legal_action
-from policies.prioritized import assign_in_rank, check_rank
+from multicrane.sim.simulator import NOBODY
+from multicrane.tasks.priority_rule import check_rank, propose
 
 
 def _book(env):
@@ -46,30 +47,10 @@ class TaskPrioritized:
         return self.env.mode.carrier_stats()
 
     def __call__(self, observations: dict) -> dict:
-        env = self.env
-        book = env.mode.task_book()
-        sim, carrier = env.sim, book.carrier
-        agents = env.possible_agents
-        actions = dict.fromkeys(agents, 0)
-        T = sim.state.step_count
-        idle = book.idle_cranes()
-        if not idle or not carrier.may_start(T):
-            return actions
-        allowed = book.allowed()
-        index = book.tasks.index
-
-        def start(crane: int, comp: int, target: int) -> bool:
-            p = index[(comp, target)]
-            if not env.task_feasible(crane, p):
-                return False
-            actions[agents[crane]] = 1 + p
-            return True
-
-        assign_in_rank(
-            sim, carrier, idle, self.rank, self._list_rank, self.max_searches,
-            lambda k, comp, target: bool(allowed[k, index[(comp, target)]]), start,
-        )  # fmt: skip
-        return actions
+        book = self.env.mode.task_book()
+        chosen = propose(book, self._list_rank, self.rank, self.max_searches)
+        return {a: 1 + p if p != NOBODY else 0
+                for a, p in zip(self.env.possible_agents, chosen, strict=True)}  # fmt: skip
 
 
 class TaskGreedy:

@@ -96,6 +96,21 @@ def register(sub) -> None:
     p.add_argument("--reward", choices=("paper", "makespan"), default="paper",
                    help="multi-agent: the environments' reward, the paper's (default) or "
                    "makespan (-1 per simulated step; what the makespan tables measure)")
+    _imitation_options(p)
+    p.add_argument("--keep-best", action="store_true",
+                   help="keep the model of the curve point with the best return on validation "
+                   "episodes (reset seeds 2,000,000...; needs --eval-every)")  # fmt: skip
+    p.add_argument("--out", type=Path, default=None, help="run directory")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
+                   help="sb3: stable-baselines3 in this process (default); rllib: RLlib on Ray")
+    p.add_argument("--address", default=None,
+                   help="rllib: Ray cluster to join (auto, ray://HOST:10001; default: local)")
+    p.set_defaults(func=run)
+
+
+def _imitation_options(p) -> None:
+    """Imitation of a teacher and what refines it (the set policy's options)."""
     p.add_argument("--imitate", default=None, metavar="POLICY",
                    help="set policy: fit it to this planner's choices before PPO "
                    "(prioritized, lookahead, lookahead:candidates=20; docs/training.md)"
@@ -122,16 +137,9 @@ def register(sub) -> None:
     p.add_argument("--clone-weight", type=float, default=0.0, metavar="W",
                    help="with --imitate and --imitate-demos: after every PPO update, cloning "
                    "steps on the teacher's rows, their gradient times W (default 0: none)")
-    p.add_argument("--keep-best", action="store_true",
-                   help="keep the model of the curve point with the best return on validation "
-                   "episodes (reset seeds 2,000,000...; needs --eval-every)")  # fmt: skip
-    p.add_argument("--out", type=Path, default=None, help="run directory")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--backend", choices=("sb3", "rllib"), default="sb3",
-                   help="sb3: stable-baselines3 in this process (default); rllib: RLlib on Ray")
-    p.add_argument("--address", default=None,
-                   help="rllib: Ray cluster to join (auto, ray://HOST:10001; default: local)")
-    p.set_defaults(func=run)
+    p.add_argument("--planner-hint", action="store_true",
+                   help="set policy: each task row also shows whether the prioritized planner "
+                   "would start it for the crane now (the policy learns where to depart from it)")
 
 
 def parse_value(text: str):
@@ -204,6 +212,7 @@ def build_config(args: argparse.Namespace):
         round_episodes=args.round_episodes,
         keep_best=args.keep_best,
         clone_weight=args.clone_weight,
+        planner_hint=args.planner_hint,
     )
 
 

@@ -78,7 +78,9 @@ class TrainConfig:
     validation return; the run's final model is that one (early stopping; the curve shows
     every point). ``clone_weight`` (with ``imitate`` and ``imitate_demos``): after every PPO
     update, cloning steps on the teacher's rows weighted by it, keeping PPO near the
-    imitated policy (``multicrane.training.clone_term``; 0: none).
+    imitated policy (``multicrane.training.clone_term``; 0: none). ``planner_hint`` (set
+    policy): each task row also shows whether the prioritized planner would start it for the
+    observing crane now (``multicrane.training.set_obs``, the ``proposed`` column).
     """
 
     scenario: str = "E2S2"
@@ -117,6 +119,7 @@ class TrainConfig:
     round_episodes: int = 32
     keep_best: bool = False
     clone_weight: float = 0.0
+    planner_hint: bool = False
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -196,10 +199,14 @@ class TrainConfig:
             raise ConfigError(f"workers={self.workers!r}: must be a positive integer")
         if self.policy == "mlp" and self.workers != 1:
             raise ConfigError(f"workers={self.workers!r}: needs policy='set'")
+        if not isinstance(self.planner_hint, bool):
+            raise ConfigError(f"planner_hint={self.planner_hint!r}: must be true or false")
         if self.policy == "mlp":
             for name in ("set_limits", "curriculum"):
                 if getattr(self, name) is not None:
                     raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
+            if self.planner_hint:
+                raise ConfigError("planner_hint=True: needs policy='set'")
             return
         task = decision_mode(self.decisions).task_level
         if self.paper or not task or self.algo != "maskable_ppo":
@@ -212,7 +219,9 @@ class TrainConfig:
             from multicrane.training.set_obs import SetLimits
 
             if not isinstance(self.set_limits, dict) or set(self.set_limits) != {
-                "components", "cranes", "tasks"
+                "components",
+                "cranes",
+                "tasks",
             }:
                 raise ConfigError(
                     f"set_limits={self.set_limits!r}: needs the keys components, cranes, tasks"
@@ -225,13 +234,9 @@ class TrainConfig:
             from multicrane.training.curriculum import CURRICULA
 
             if self.curriculum not in CURRICULA:
-                raise ConfigError(
-                    f"curriculum={self.curriculum!r}: one of {', '.join(CURRICULA)}"
-                )
+                raise ConfigError(f"curriculum={self.curriculum!r}: one of {', '.join(CURRICULA)}")
             if self.scenario != "set:train":
-                raise ConfigError(
-                    f"scenario={self.scenario!r}: a curriculum trains on 'set:train'"
-                )
+                raise ConfigError(f"scenario={self.scenario!r}: a curriculum trains on 'set:train'")
 
     def _check_keep_best(self) -> None:
         if not isinstance(self.keep_best, bool):

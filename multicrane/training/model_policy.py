@@ -188,13 +188,15 @@ class SetModelPolicy(SharedModelPolicy):
         if not limits.fits(env.observation_layout):
             if env.observation_layout.events is not None and not limits.events:
                 limits.check(env.observation_layout, env.scenario.name)  # names the option
-            limits = union([env.observation_layout, _Layout(**limits.to_dict())])
+            limits = union([env.observation_layout, _Layout(**limits.to_dict())], limits.hint)
         self.actor = SetActor(model.policy, limits)
-        self.padder = Padder(env.observation_layout, self.actor.limits)
+        self.padder = Padder(env.observation_layout, self.actor.limits, env)
 
     def _inputs(self, observations: dict) -> tuple[np.ndarray, np.ndarray]:
         pad = self.padder
-        batch = np.stack([pad.pad(o["observation"]) for o in observations.values()])
+        proposed = dict(zip(self.env.possible_agents, pad.proposals(), strict=True))
+        batch = np.stack([pad.pad(o["observation"], proposed=proposed[a])
+                          for a, o in observations.items()])  # fmt: skip
         masks = np.stack([pad.pad_mask(o["action_mask"]) for o in observations.values()])
         return batch, masks
 
@@ -208,7 +210,8 @@ class SetModelPolicy(SharedModelPolicy):
 class _Layout:
     """Table sizes in ``TaskLayout``'s attribute names (for ``set_obs.union``)."""
 
-    def __init__(self, components: int, cranes: int, tasks: int, events: bool = False):
+    def __init__(self, components: int, cranes: int, tasks: int, events: bool = False,
+                 hint: bool = False):  # fmt: skip
         self.n_components, self.n_cranes, self.n_tasks = components, cranes, tasks
         self.events = (1, 1) if events else None  # only whether it is there matters
 

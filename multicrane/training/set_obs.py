@@ -21,6 +21,13 @@ mask (a task through a closed cell is not allowed) and the ``target_ready``/``cl
 columns. A site without events padded to limits with events shows every component delivered
 and every crane available (what a static site is); a site with events does not fit limits
 without them (the policy could not see the events): ``check`` says so.
+
+With the planner's hint (``SetLimits.hint``, ``multicrane train --planner-hint``) each task row
+gains a last column ``proposed``: 1 on the task the prioritized planner would start for the
+observing crane in this round (``multicrane.tasks.priority_rule.proposals``, a dry run that
+changes nothing), 0 elsewhere (all 0: the planner would have the crane wait). The policy then
+learns when and where to depart from the planner rather than the planner itself; the padder
+needs the environment to ask it (``Padder(..., env=env)``).
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ from multicrane.envs.task_observation import (
     TASK_FEATURES,
     TaskLayout,
 )
+from multicrane.tasks.priority_rule import proposals
 
 N_COMP = len(COMPONENT_FEATURES)
 N_CRANE = len(CRANE_FEATURES)
@@ -50,6 +58,7 @@ class SetLimits:
     cranes: int
     tasks: int
     events: bool = False  # the delivered / available columns of sites with events
+    hint: bool = False  # the tasks' ``proposed`` column (the planner's choice; module doc)
 
     def __post_init__(self) -> None:
         for name in ("components", "cranes", "tasks"):
@@ -58,6 +67,8 @@ class SetLimits:
                 raise ValueError(f"SetLimits.{name}={value!r}: must be a positive integer")
         if not isinstance(self.events, bool):
             raise ValueError(f"SetLimits.events={self.events!r}: must be True or False")
+        if not isinstance(self.hint, bool):
+            raise ValueError(f"SetLimits.hint={self.hint!r}: must be True or False")
 
     @classmethod
     def of(cls, layout: TaskLayout) -> SetLimits:
@@ -101,12 +112,16 @@ class SetLimits:
         return N_CRANE + self.events
 
     @property
+    def task_width(self) -> int:
+        return N_TASK + self.hint
+
+    @property
     def size(self) -> int:
         return (
             HEADER
             + self.components * self.comp_width
             + self.cranes * self.crane_width
-            + self.tasks * N_TASK
+            + self.tasks * self.task_width
         )
 
     @property
@@ -119,7 +134,7 @@ class SetLimits:
         for name, shape in (
             ("components", (self.components, self.comp_width)),
             ("cranes", (self.cranes, self.crane_width)),
-            ("tasks", (self.tasks, N_TASK)),
+            ("tasks", (self.tasks, self.task_width)),
         ):
             n = shape[0] * shape[1]
             out[name] = (at, at + n, shape)
@@ -127,11 +142,12 @@ class SetLimits:
         return out
 
     def to_dict(self) -> dict[str, int]:
-        """The sizes (and ``events: True`` only when on, so limits without events keep the
-        dict of older runs)."""
+        """The sizes (and ``events: True`` or ``hint: True`` only when on, so limits without
+        them keep the dict of older runs)."""
         out = {"components": self.components, "cranes": self.cranes, "tasks": self.tasks}
-        if self.events:
-            out["events"] = True
+        for name in ("events", "hint"):
+            if getattr(self, name):
+                out[name] = True
         return out
 
 
@@ -139,9 +155,9 @@ def _has_events(layout) -> bool:
     return getattr(layout, "events", None) is not None
 
 
-def union(layouts) -> SetLimits:
+def union(layouts, hint: bool = False) -> SetLimits:
     """The smallest limits that fit every one of ``layouts`` (with event columns if any has
-    them)."""
+    them; with the hint column if ``hint``)."""
     layouts = list(layouts)
     if not layouts:
         raise ValueError("union of no layouts")
@@ -150,18 +166,27 @@ def union(layouts) -> SetLimits:
         max(x.n_cranes for x in layouts),
         max(x.n_tasks for x in layouts),
         any(_has_events(x) for x in layouts),
+        hint,
     )
 
 
 class Padder:
-    """Pads the flat task observations of one site (``layout``) to ``limits``."""
+    """Pads the flat task observations of one site (``layout``) to ``limits``; with the hint
+    column, ``env`` (the site's task-mode ``MultiCraneEnv``) is asked for the planner's
+    proposals (``proposals()``, then each crane's ``pad(..., proposed=p)``)."""
 
-    def __init__(self, layout: TaskLayout, limits: SetLimits):
+    def __init__(self, layout: TaskLayout, limits: SetLimits, env=None):
         limits.check(layout)
-        self.layout, self.limits = layout, limits
+        if limits.hint and env is None:
+            raise ValueError("set limits with the planner's hint need the environment: "
+                             "Padder(layout, limits, env=env)")  # fmt: skip
+        env = getattr(env, "unwrapped", env)
+        self.layout, self.limits, self.env = layout, limits, env
+        if limits.hint:
+            self._list_rank = {c: i for i, c in enumerate(env.scenario.order)}
         C, N, P = layout.n_components, layout.n_cranes, layout.n_tasks
         ev = _has_events(layout)
-        self.exact = SetLimits.of(layout) == limits and not ev  # (events: no closed block)
+        self.exact = SetLimits.of(layout) == limits and not ev and not limits.hint
         # Index map: destination positions of the source vector's entries, built once.
         sl = limits.slices()
         c0, cw = sl["components"][0], limits.comp_width
@@ -172,8 +197,9 @@ class Padder:
         comp_dst = (rows + cols[None, :]).ravel()
         k0, kw = sl["cranes"][0], limits.crane_width
         crane_dst = (k0 + np.arange(N)[:, None] * kw + np.arange(N_CRANE + ev)[None, :]).ravel()
-        t0 = sl["tasks"][0]
-        task_dst = t0 + np.arange(P * N_TASK)
+        t0, tw = sl["tasks"][0], limits.task_width
+        self.hint_at = t0 + N_TASK + np.arange(P) * tw  # the proposed column of each task
+        task_dst = (t0 + np.arange(P)[:, None] * tw + np.arange(N_TASK)[None, :]).ravel()
         self.dst = np.concatenate([comp_dst, crane_dst, task_dst])
         # A site without events under limits with events: all delivered, all available.
         self.ones = np.zeros(0, dtype=np.int64)
@@ -183,8 +209,18 @@ class Padder:
             ).astype(np.int64)
         self.header = np.array([C, N, P], dtype=np.float32)
 
-    def pad(self, obs: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        """The padded vector of one flat observation (written into ``out`` if given)."""
+    def proposals(self) -> list[int]:
+        """Per crane, the task the prioritized planner would start for it now (-1: none);
+        every -1 without the hint column."""
+        if not self.limits.hint:
+            return [-1] * self.layout.n_cranes
+        book = self.env.mode.task_book()
+        return proposals(book, self._list_rank)
+
+    def pad(self, obs: np.ndarray, out: np.ndarray | None = None, proposed: int = -1
+            ) -> np.ndarray:  # fmt: skip
+        """The padded vector of one flat observation (written into ``out`` if given);
+        ``proposed``: the planner's task for the observing crane (the hint column)."""
         if out is None:
             out = np.zeros(self.limits.size, dtype=np.float32)
         else:
@@ -195,6 +231,8 @@ class Padder:
         else:
             out[self.dst] = obs[: len(self.dst)]  # (a closed block after the tasks: left out)
             out[self.ones] = 1.0
+        if proposed >= 0:
+            out[self.hint_at[proposed]] = 1.0
         return out
 
     def pad_mask(self, mask: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:

@@ -22,6 +22,11 @@ tests check all three.
 With site events (``SetLimits.events``) the component token also reads the ``delivered``
 column and the crane token the ``available`` column (``multicrane.training.set_obs``).
 
+With the planner's hint (``SetLimits.hint``) the task row's ``proposed`` column goes into the
+task MLP, and two learned scalars add it directly: ``hint_gain`` times it to the task's
+logit, ``hint_wait`` to the wait logit when the planner proposes no task for the crane (both
+start at 0: the hint weighs what training makes it weigh).
+
 Only allowed (row, task) pairs go through the task MLP: a task that is not allowed gets the
 logit ``-1e8`` whatever the mask, so no illegal task is ever chosen, and a busy crane's row
 (no task allowed) costs the task head nothing. ``SetPolicy`` is MaskablePPO's policy with this
@@ -70,7 +75,10 @@ class SetExtractor(BaseFeaturesExtractor):
             self.attn = nn.MultiheadAttention(dim, heads, batch_first=True)
             self.norm1, self.norm2 = nn.LayerNorm(dim), nn.LayerNorm(dim)
             self.ff = _mlp(dim, 2 * dim, dim)
-        self.task_in = nn.Linear(N_TASK - 1, dim)  # all but the component index
+        self.task_in = nn.Linear(limits.task_width - 1, dim)  # all but the component index
+        if limits.hint:  # the planner's proposal straight into the logits (set_obs doc)
+            self.hint_gain = nn.Parameter(th.zeros(()))  # on the proposed task's logit
+            self.hint_wait = nn.Parameter(th.zeros(()))  # on waiting, when none is proposed
         self.task_ctx = nn.Linear(2 * dim, dim)
         self.task_out = _mlp(dim, dim, 1)
         self.wait_out = _mlp(2 * dim, dim, 1)
@@ -120,12 +128,18 @@ class SetExtractor(BaseFeaturesExtractor):
         allowed &= th.arange(Pm, device=obs.device)[None, :] < counts[:, 2:3]
         rows, cols = allowed.nonzero(as_tuple=True)
         if rows.numel():
-            row_t = tasks[rows, cols]  # (K, 9)
+            row_t = tasks[rows, cols]  # (K, task_width)
             n_c = (counts[rows, 0] - 1).clamp(min=1).float()
             comp_idx = (row_t[:, _COMPONENT] * n_c).round().long().clamp(0, Cm - 1)
             h = self.task_in(row_t[:, 1:]) + x[rows, comp_idx] + self.task_ctx(gs)[rows]
-            logits = logits.index_put((rows, cols), self.task_out(th.relu(h)).squeeze(-1))
+            out = self.task_out(th.relu(h)).squeeze(-1)
+            if self.limits.hint:
+                out = out + self.hint_gain * row_t[:, N_TASK]
+            logits = logits.index_put((rows, cols), out)
         wait = self.wait_out(gs)
+        if self.limits.hint:
+            none = 1.0 - tasks[:, :, N_TASK].amax(1, keepdim=True)  # (B, 1)
+            wait = wait + self.hint_wait * none
         return th.cat([wait, logits, g, s], -1)
 
 

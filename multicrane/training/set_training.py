@@ -11,6 +11,7 @@ the wall time small (rows/s: ``multicrane marl-bench --throughput``).
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 from multicrane.training.set_obs import SetLimits
@@ -50,7 +51,12 @@ def set_hyperparameters(overrides: dict[str, Any]) -> dict[str, Any]:
 
 
 def limits_of(cfg) -> SetLimits:
-    """The padded table sizes of a run: ``set_limits``, the curriculum's, or the scenario's."""
+    """The padded table sizes of a run: ``set_limits``, the curriculum's, or the scenario's;
+    with the planner's hint column when ``planner_hint``."""
+    return dataclasses.replace(_sizes_of(cfg), hint=bool(cfg.planner_hint))
+
+
+def _sizes_of(cfg) -> SetLimits:
     if cfg.curriculum is not None and cfg.set_limits is None:
         from multicrane.training.curriculum import CURRICULA
 

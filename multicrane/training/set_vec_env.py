@@ -83,7 +83,7 @@ class SetVecEnv(CraneVecEnv):
         if not env.mode.task_level:
             raise ValueError(f"copy {copy}: the set policy needs decisions='task'")
         self.limits.check(env.observation_layout, f"copy {copy} ({env.scenario.name})")
-        return Padder(env.observation_layout, self.limits)
+        return Padder(env.observation_layout, self.limits, env)
 
     # -- stepping ----------------------------------------------------------------------------
 
@@ -92,9 +92,11 @@ class SetVecEnv(CraneVecEnv):
         base = copy * self.n_agents
         masks = env.action_masks()
         agents = env.possible_agents
+        proposed = pad.proposals()
         for j, agent in enumerate(agents):
             o = observations[agent]
-            pad.pad(o["observation"] if isinstance(o, dict) else o, self._obs[base + j])
+            o = o["observation"] if isinstance(o, dict) else o
+            pad.pad(o, self._obs[base + j], proposed[j])
             pad.pad_mask(masks[agent], self._masks[base + j])
         for j in range(len(agents), self.n_agents):
             self._obs[base + j] = self._dummy

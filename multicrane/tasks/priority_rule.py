@@ -1,0 +1,137 @@
+"""The prioritized assignment rule: ready (component, target) pairs ranked, given to idle cranes.
+
+Shared by the motion-level planner (``policies.prioritized``), the task-level planner
+(``policies.task_planners.TaskPrioritized``) and the planner's proposal that a set policy may
+read beside its observation (``proposals``, ``multicrane.training.set_obs``). ``rank="list"``
+ranks by the component's place in the scenario's list order, then by the distance from the
+pick-up pose to the target; ``rank="nearest"`` by that distance alone (ties: component,
+target). Each pair in rank order goes to the first idle crane that may take it and is kept
+when the carrier's space-time search succeeds, at most ``max_searches`` searches per round.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+
+import numpy as np
+
+from multicrane.sim.simulator import NOBODY, Simulator
+from multicrane.tasks.book import TaskBook
+from multicrane.tasks.carrier import Carrier
+
+
+def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
+    """Ready (component, target) pairs, best first: ``(distance, comp, target)`` tuples over
+    each candidate's ready compatible targets not in ``taken`` that a pose of its shape
+    covers (``Carrier.pair_distances``: from the pick-up pose to the target's pose); ranked
+    by (list rank, distance, target) or (distance, component, target)."""
+    if not candidates:
+        return []
+    comps = np.asarray(candidates, dtype=np.int64)
+    dist = carrier.pair_distances()[comps]
+    open_ = np.asarray(carrier.sim.target_ready, dtype=bool)
+    open_[list(taken)] = False
+    rows, targets = np.nonzero((dist >= 0) & open_)
+    comp, d = comps[rows], dist[rows, targets]
+    if rank == "list":
+        order = np.lexsort((targets, d, np.array([list_rank[c] for c in comp.tolist()])))
+    else:
+        order = np.lexsort((targets, comp, d))
+    ranked = (d[order].tolist(), comp[order].tolist(), targets[order].tolist())
+    return list(zip(*ranked, strict=True))
+
+
+def check_rank(rank: str) -> str:
+    if rank not in ("list", "nearest"):
+        raise ValueError(f"rank must be 'list' or 'nearest', got {rank!r}")
+    return rank
+
+
+def assign_in_rank(
+    sim: Simulator,
+    carrier: Carrier,
+    idle: list[int],
+    rank: str,
+    list_rank: dict[int, int],
+    max_searches: int,
+    eligible: Callable[[int, int, int], bool],
+    start: Callable[[int, int, int], bool],
+) -> None:
+    """The prioritized rule, shared by both decision levels: ready (component, target) pairs
+    best first; each goes to the first idle crane ``eligible(crane, comp, target)`` for it,
+    and ``start(crane, comp, target)`` (a space-time search) decides; each component, target
+    and crane is used once, and at most ``max_searches`` searches run in a round."""
+    candidates = [c for c in sim.claimable_components() if c not in carrier.plans]
+    if not candidates:
+        return
+    pairs = ranked_pairs(carrier, candidates, carrier.taken_targets(), rank, list_rank)
+    used_c: set[int] = set()
+    used_t: set[int] = set()
+    for _, comp, t in pairs:
+        if not idle or carrier.round_searches >= max_searches:
+            break
+        if comp in used_c or t in used_t:
+            continue
+        crane = next((k for k in idle if eligible(k, comp, t)), NOBODY)
+        if crane == NOBODY:
+            continue
+        if start(crane, comp, t):
+            idle.remove(crane)
+            used_c.add(comp)
+            used_t.add(t)
+
+
+def propose(book: TaskBook, list_rank: dict[int, int], rank: str = "list",
+            max_searches: int = 8) -> list[int]:  # fmt: skip
+    """Per crane, the task (``p``) the rule starts for it in this round (``NOBODY``: none),
+    each found by ``TaskBook.feasible``, whose plan stays with the crane until ``choose``."""
+    sim, carrier = book.sim, book.carrier
+    out = [NOBODY] * sim.n_cranes
+    idle = book.idle_cranes()
+    if not idle or not carrier.may_start(sim.state.step_count):
+        return out
+    allowed = book.allowed()
+    index = book.tasks.index
+
+    def start(crane: int, comp: int, target: int) -> bool:
+        p = index[(comp, target)]
+        if not book.feasible(crane, p):
+            return False
+        out[crane] = p
+        return True
+
+    assign_in_rank(
+        sim, carrier, idle, rank, list_rank, max_searches,
+        lambda k, comp, target: bool(allowed[k, index[(comp, target)]]), start,
+    )  # fmt: skip
+    return out
+
+
+def proposals(book: TaskBook, list_rank: dict[int, int], rank: str = "list",
+              max_searches: int = 8) -> list[int]:  # fmt: skip
+    """``propose`` as a dry run: the same answer, with the book and the carrier left as they
+    were (its plans cancelled; the round's search count, probes and counters restored), so
+    asking it changes no episode. A round whose probes some planner already made is asked
+    on a copy of the book with those probes cancelled: the answer is the round's, from its
+    start (the dry run could otherwise replace them)."""
+    sim, carrier = book.sim, book.carrier
+    if book._probe_t == sim.state.step_count and book._probe:
+        shared = {id(x): x for x in (sim, book.tasks, book.static)}
+        book = copy.deepcopy(book, shared)
+        for crane in book._probe:  # back to the round's start
+            book.carrier.cancel(crane)
+        book._probe_t, book.carrier.round_searches = None, 0  # (only try_start counts)
+        return propose(book, list_rank, rank, max_searches)
+    saved = (book._probe_t, book._probe, book._infeasible, carrier.round_searches,
+             dict(carrier.stats))  # fmt: skip
+    try:
+        return propose(book, list_rank, rank, max_searches)
+    finally:
+        if book._probe_t == sim.state.step_count:
+            for crane in book._probe:
+                carrier.cancel(crane)
+        book._probe_t, book._probe, book._infeasible = saved[:3]
+        carrier.round_searches = saved[3]
+        carrier.stats.clear()
+        carrier.stats.update(saved[4])
