@@ -32,6 +32,9 @@ target this round: treated as wait) and ``TASK_DONE`` (the component is assemble
 
 from __future__ import annotations
 
+import copy
+from contextlib import contextmanager
+
 import numpy as np
 
 from multicrane.core.codes import Status
@@ -266,6 +269,35 @@ class TaskBook:
             return True
         self._infeasible.add((crane, p))
         return False
+
+    @contextmanager
+    def trial(self):
+        """A book to probe with (``feasible``) that leaves this one as it was: itself, its
+        probes cancelled and its round's search count, probes and counters restored on exit;
+        or, when some planner already probed this round, a copy with those probes cancelled
+        (the round as it began; a probe made here could replace one of theirs)."""
+        sim, carrier = self.sim, self.carrier
+        T = sim.state.step_count
+        carrier.begin(T)  # the round's own work (replans after events), kept and counted
+        if self._probe_t == T and self._probe:
+            scratch = copy.deepcopy(self, {id(x): x for x in (sim, self.tasks, self.static)})
+            for crane in scratch._probe:
+                scratch.carrier.cancel(crane)
+            scratch._probe_t, scratch.carrier.round_searches = None, 0  # (try_start counts)
+            yield scratch
+            return
+        saved = (self._probe_t, self._probe, self._infeasible, carrier.round_searches,
+                 dict(carrier.stats))  # fmt: skip
+        try:
+            yield self
+        finally:
+            if self._probe_t == T:
+                for crane in self._probe:
+                    carrier.cancel(crane)
+            self._probe_t, self._probe, self._infeasible = saved[:3]
+            carrier.round_searches = saved[3]
+            carrier.stats.clear()
+            carrier.stats.update(saved[4])
 
     # -- choices and steps -----------------------------------------------------------------
 

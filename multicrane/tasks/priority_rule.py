@@ -11,7 +11,6 @@ when the carrier's space-time search succeeds, at most ``max_searches`` searches
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Callable
 
 import numpy as np
@@ -110,28 +109,7 @@ def propose(book: TaskBook, list_rank: dict[int, int], rank: str = "list",
 
 def proposals(book: TaskBook, list_rank: dict[int, int], rank: str = "list",
               max_searches: int = 8) -> list[int]:  # fmt: skip
-    """``propose`` as a dry run: the same answer, with the book and the carrier left as they
-    were (its plans cancelled; the round's search count, probes and counters restored), so
-    asking it changes no episode. A round whose probes some planner already made is asked
-    on a copy of the book with those probes cancelled: the answer is the round's, from its
-    start (the dry run could otherwise replace them)."""
-    sim, carrier = book.sim, book.carrier
-    if book._probe_t == sim.state.step_count and book._probe:
-        shared = {id(x): x for x in (sim, book.tasks, book.static)}
-        book = copy.deepcopy(book, shared)
-        for crane in book._probe:  # back to the round's start
-            book.carrier.cancel(crane)
-        book._probe_t, book.carrier.round_searches = None, 0  # (only try_start counts)
-        return propose(book, list_rank, rank, max_searches)
-    saved = (book._probe_t, book._probe, book._infeasible, carrier.round_searches,
-             dict(carrier.stats))  # fmt: skip
-    try:
-        return propose(book, list_rank, rank, max_searches)
-    finally:
-        if book._probe_t == sim.state.step_count:
-            for crane in book._probe:
-                carrier.cancel(crane)
-        book._probe_t, book._probe, book._infeasible = saved[:3]
-        carrier.round_searches = saved[3]
-        carrier.stats.clear()
-        carrier.stats.update(saved[4])
+    """``propose`` as a dry run (``TaskBook.trial``): the round's answer, with the book and
+    the carrier left as they were, so asking it changes no episode."""
+    with book.trial() as scratch:
+        return propose(scratch, list_rank, rank, max_searches)

@@ -10,14 +10,15 @@ from multicrane.sim.simulator import NOBODY
 from multicrane.tasks.priority_rule import proposals
 from policies.task_planners import TaskPrioritized
 
-CASES = [("hall-4c", 4, 0), ("hall-4c", 2, 3), ("frame2-3c", 3, 0), ("e3s2", 2, 1)]
+CASES = [("hall-4c", 4, 0, None), ("hall-4c", 2, 3, None), ("frame2-3c", 3, 0, None),
+         ("e3s2", 2, 1, None), ("hall-4c", 4, 1, "high")]  # fmt: skip
 
 
-def _play(scenario, cranes, seed, ask: str | None):
+def _play(scenario, cranes, seed, events, ask: str | None):
     """Play the task-level prioritized planner; ``ask``: call ``proposals`` before
     (``"before"``) or after (``"after"``) the planner each round and check they agree.
     Returns the motion trace, the decisions and the carrier's counters."""
-    env = multicrane.parallel_env(scenario, n_cranes=cranes, decisions="task")
+    env = multicrane.parallel_env(scenario, n_cranes=cranes, decisions="task", events=events)
     obs, _ = env.reset(seed=seed)
     planner = TaskPrioritized(env)
     book = env.mode.task_book()
@@ -38,11 +39,11 @@ def _play(scenario, cranes, seed, ask: str | None):
     return env.mode.trace, env.mode.decisions, dict(env.mode.carrier_stats())
 
 
-@pytest.mark.parametrize("scenario,cranes,seed", CASES)
-def test_proposals_are_the_planners_choices_and_change_nothing(scenario, cranes, seed):
-    plain = _play(scenario, cranes, seed, None)
-    assert _play(scenario, cranes, seed, "before") == plain
-    assert _play(scenario, cranes, seed, "after") == plain  # the probes kept (a copy asked)
+@pytest.mark.parametrize("case", CASES, ids=lambda c: "-".join(map(str, c)))
+def test_proposals_are_the_planners_choices_and_change_nothing(case):
+    plain = _play(*case, None)
+    assert _play(*case, "before") == plain
+    assert _play(*case, "after") == plain  # the probes kept (a copy asked)
 
 
 def test_no_proposals_when_no_crane_is_idle_or_the_site_is_done():
