@@ -18,13 +18,15 @@ from multicrane.training.set_policy import BLOCKED
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
-@pytest.fixture(scope="module")
-def run_dir(tmp_path_factory):
+@pytest.fixture(scope="module", params=[False, True], ids=["plain", "planner-hint"])
+def run_dir(tmp_path_factory, request):
     """A set policy after a few PPO steps (its weights are what they are: a guide need not
-    be good to be followed)."""
+    be good to be followed); with the planner's hint, the guide asks the planner's rule
+    after the search's own planner has probed the round (``TaskBook.trial``'s copy)."""
     path = tmp_path_factory.mktemp("guide") / "e3s2-s0"
     cfg = TrainConfig("e3s2", paper=False, n_cranes=2, decisions="task", algo="maskable_ppo",
-                      policy="set", reward="makespan", shaping=0.0, n_envs=2, total_steps=32,
+                      policy="set", planner_hint=request.param,
+                      reward="makespan", shaping=0.0, n_envs=2, total_steps=32,
                       eval_every=0, eval_episodes=1, checkpoint_every=0,
                       hyperparams={"n_steps": 16, "batch_size": 16, "n_epochs": 1})  # fmt: skip
     train(cfg, path, log=lambda *a: None)
