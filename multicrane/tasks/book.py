@@ -38,10 +38,10 @@ from contextlib import contextmanager
 import numpy as np
 
 from multicrane.core.codes import Status
-from multicrane.sim.shortest_paths import UNREACHABLE, breadth_first, fits_everywhere
-from multicrane.sim.simulator import FREE, NOBODY, Simulator
+from multicrane.sim.shortest_paths import UNREACHABLE
+from multicrane.sim.simulator import NOBODY, Simulator
 from multicrane.tasks.carrier_events import EventCarrier
-from multicrane.tasks.reservations import goal_position
+from multicrane.tasks.static_paths import StaticPaths
 
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
 
@@ -98,39 +98,6 @@ def task_list(env) -> TaskList | None:
     return mode.task_book().tasks if getattr(mode, "task_level", False) else None
 
 
-class StaticPaths:
-    """Shortest path lengths through the static site (walls and obstacles only), per
-    (component shape, goal pose, crane zone); cached for the life of the site."""
-
-    def __init__(self, sim: Simulator):
-        self.sim = sim
-        self.free = sim.site.static == FREE
-        self._fit: dict[tuple, np.ndarray] = {}
-        self._dist: dict[tuple, np.ndarray] = {}
-
-    def length(self, pickup: list[int], target: int, zone: int) -> int:
-        """Moves from the pick-up pose to the target's pose (``UNREACHABLE``: none)."""
-        if not pickup:
-            return UNREACHABLE
-        site = self.sim.site
-        rel = tuple(j - pickup[0] for j in pickup)
-        goal = goal_position(rel, site.target_cells[target])
-        if goal is None:
-            return UNREACHABLE
-        key = (rel, goal, zone)
-        dist = self._dist.get(key)
-        if dist is None:
-            fit = self._fit.get((rel, zone))
-            if fit is None:
-                fit = fits_everywhere(self.free, rel)
-                if zone >= 0:
-                    fit &= fits_everywhere(site.reach[zone], rel)
-                self._fit[(rel, zone)] = fit
-            dist = breadth_first(fit, [goal], site.move_delta)
-            self._dist[key] = dist
-        return int(dist[pickup[0]])
-
-
 class TaskBook:
     """The cranes' tasks in one episode: masks, choices, hold/retry/drop, completion."""
 
@@ -157,16 +124,23 @@ class TaskBook:
         self._probe: dict[int, int] = {}  # crane -> task started by task_feasible this round
         self._probe_t: int | None = None
         self._infeasible: set[tuple[int, int]] = set()
-        zones = sim.site.reach is not None
-        self.static_len = np.full((n, len(self.tasks)), UNREACHABLE, dtype=np.int64)
-        for p, (c, t) in enumerate(self.tasks.pairs):
-            for k in range(n):
-                if zones and not self.carrier.reaches_pair(k, c, t):
-                    continue
-                self.static_len[k, p] = self.static.length(
-                    sim.state.pickup[c], t, k if zones else -1
-                )
+        self.static_len = self._static_lengths()
         self.static_ok = self.static_len != UNREACHABLE
+
+    def _static_lengths(self) -> np.ndarray:
+        """(N, P): each crane's static path length of each task (``UNREACHABLE``: none, or
+        out of the crane's reach); without reach zones one row serves every crane."""
+        sim, pickup = self.sim, self.sim.state.pickup
+        n, pairs = sim.n_cranes, self.tasks.pairs
+        if sim.site.reach is None:
+            row = [self.static.length(pickup[c], t, -1) for c, t in pairs]
+            return np.repeat(np.array([row], dtype=np.int64).reshape(1, -1), n, axis=0)
+        out = np.full((n, len(pairs)), UNREACHABLE, dtype=np.int64)
+        for p, (c, t) in enumerate(pairs):
+            for k in range(n):
+                if self.carrier.reaches_pair(k, c, t):
+                    out[k, p] = self.static.length(pickup[c], t, k)
+        return out
 
     # -- queries ---------------------------------------------------------------------------
 

@@ -1,0 +1,41 @@
+"""The task book's static path lengths (``TaskBook.static_len``): one row for every crane
+without reach zones, each crane inside its own zone with them; checked against the
+per-crane, per-task reference loop over ``StaticPaths.length``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import multicrane
+from multicrane.sim.shortest_paths import UNREACHABLE
+from multicrane.tasks.static_paths import StaticPaths
+
+
+def _reference(env) -> np.ndarray:
+    sim, book = env.sim, env.mode.task_book()
+    paths = StaticPaths(sim)  # a fresh cache: nothing carried over from the book's
+    zones = sim.site.reach is not None
+    out = np.full((sim.n_cranes, len(book.tasks)), UNREACHABLE, dtype=np.int64)
+    for p, (c, t) in enumerate(book.tasks.pairs):
+        for k in range(sim.n_cranes):
+            if zones and not book.carrier.reaches_pair(k, c, t):
+                continue
+            out[k, p] = paths.length(sim.state.pickup[c], t, k if zones else -1)
+    return out
+
+
+@pytest.mark.parametrize(
+    "scenario,cranes", [("hall-4c", 4), ("frame2-3c", 3), ("e3s2", 2), ("towers-3c", 3)]
+)
+def test_static_lengths_match_the_reference_loop(scenario, cranes):
+    env = multicrane.parallel_env(scenario, n_cranes=cranes, decisions="task")
+    for seed in (0, 1, 7):
+        env.reset(seed=seed)
+        book = env.mode.task_book()
+        expected = _reference(env)
+        assert np.array_equal(book.static_len, expected)
+        assert np.array_equal(book.static_ok, expected != UNREACHABLE)
+        assert book.static_ok.any()
+    if env.sim.site.reach is not None:  # the zones make the rows differ
+        assert not all(np.array_equal(book.static_len[0], row) for row in book.static_len)
