@@ -57,9 +57,21 @@ class TaskList:
         self.index = {pair: p for p, pair in enumerate(self.pairs)}
         self.comp = np.array([c for c, _ in self.pairs], dtype=np.int64)
         self.target = np.array([t for _, t in self.pairs], dtype=np.int64)
+        self._by_component: dict[int, tuple[list[int], list[int]]] | None = None
 
     def __len__(self) -> int:
         return len(self.pairs)
+
+    def by_component(self) -> dict[int, tuple[list[int], list[int]]]:
+        """Per component with tasks: its tasks' indices and their targets, in task order."""
+        if self._by_component is None:
+            out: dict[int, tuple[list[int], list[int]]] = {}
+            for p, (c, t) in enumerate(self.pairs):
+                tasks, targets = out.setdefault(c, ([], []))
+                tasks.append(p)
+                targets.append(t)
+            self._by_component = out
+        return self._by_component
 
     def conflicts(self, p: int) -> np.ndarray:
         """The tasks that share task ``p``'s component or target (``p`` among them): once a
@@ -133,8 +145,10 @@ class TaskBook:
         sim, pickup = self.sim, self.sim.state.pickup
         n, pairs = sim.n_cranes, self.tasks.pairs
         if sim.site.reach is None:
-            row = [self.static.length(pickup[c], t, -1) for c, t in pairs]
-            return np.repeat(np.array([row], dtype=np.int64).reshape(1, -1), n, axis=0)
+            row = np.empty(len(pairs), dtype=np.int64)
+            for c, (tasks, targets) in self.tasks.by_component().items():
+                row[tasks] = self.static.lengths(pickup[c], targets, -1)
+            return np.repeat(row[None, :], n, axis=0)
         out = np.full((n, len(pairs)), UNREACHABLE, dtype=np.int64)
         for p, (c, t) in enumerate(pairs):
             for k in range(n):

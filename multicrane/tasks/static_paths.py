@@ -24,20 +24,29 @@ class StaticPaths:
         self.sim = sim
         self.free = sim.site.static == FREE
         self._fit: dict[tuple, np.ndarray] = {}
-        self._dist: dict[tuple, np.ndarray] = {}
+        self._dist: dict[tuple, list[int]] = {}  # as lists: read one entry at a time
         self._goal: dict[tuple, int | None] = {}  # (shape, target) -> the goal pose
 
     def length(self, pickup: list[int], target: int, zone: int) -> int:
         """Moves from the pick-up pose to the target's pose (``UNREACHABLE``: none)."""
+        return self.lengths(pickup, [target], zone)[0]
+
+    def lengths(self, pickup: list[int], targets, zone: int) -> list[int]:
+        """``length`` to each of ``targets`` from one pick-up pose."""
         if not pickup:
-            return UNREACHABLE
-        site = self.sim.site
-        rel = tuple(j - pickup[0] for j in pickup)
+            return [UNREACHABLE] * len(targets)
+        start = pickup[0]
+        rel = tuple(j - start for j in pickup)
+        return [self._distances(rel, target, zone)[start] for target in targets]
+
+    def _distances(self, rel: tuple[int, ...], target: int, zone: int):
+        """Moves from every position of the shape to the target's pose (cached)."""
         if (rel, target) not in self._goal:
-            self._goal[(rel, target)] = goal_position(rel, site.target_cells[target])
+            cells = self.sim.site.target_cells[target]
+            self._goal[(rel, target)] = goal_position(rel, cells)
         goal = self._goal[(rel, target)]
         if goal is None:
-            return UNREACHABLE
+            return _NOWHERE
         key = (rel, goal, zone)
         dist = self._dist.get(key)
         if dist is None:
@@ -45,8 +54,18 @@ class StaticPaths:
             if fit is None:
                 fit = fits_everywhere(self.free, rel)
                 if zone >= 0:
-                    fit &= fits_everywhere(site.reach[zone], rel)
+                    fit &= fits_everywhere(self.sim.site.reach[zone], rel)
                 self._fit[(rel, zone)] = fit
-            dist = breadth_first(fit, [goal], site.move_delta)
+            dist = breadth_first(fit, [goal], self.sim.site.move_delta).tolist()
             self._dist[key] = dist
-        return int(dist[pickup[0]])
+        return dist
+
+
+class _Nowhere:
+    """The distances of a shape that covers no target's cells: unreachable from anywhere."""
+
+    def __getitem__(self, position: int) -> int:
+        return UNREACHABLE
+
+
+_NOWHERE = _Nowhere()
