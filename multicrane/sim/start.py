@@ -200,6 +200,16 @@ def draw_start(scenario: Scenario, rng: np.random.Generator) -> Start:
     )
 
 
+def weighted_index(rng: np.random.Generator, p: np.ndarray) -> int:
+    """``int(rng.choice(len(p), p=p))`` without its argument checks (``p`` is a probability
+    vector built here): numpy draws one ``rng.random()`` and finds it in the normalised
+    cumulative sums, and so does this, so the draws and the generator's state are the same
+    (tests/sim/test_start_draw.py compares both)."""
+    cdf = p.cumsum()
+    cdf /= cdf[-1]
+    return int(cdf.searchsorted(rng.random(), side="right"))
+
+
 def _draw_random_poses(
     scenario: Scenario, drawn: list[int], fixed: np.ndarray, rng: np.random.Generator
 ) -> dict[int, Pose] | None:
@@ -216,7 +226,7 @@ def _draw_random_poses(
         if not free.any():
             return None
         weights = table.probs * free
-        pick = int(rng.choice(len(weights), p=weights / weights.sum()))
+        pick = weighted_index(rng, weights / weights.sum())
         poses[i] = table.poses[pick]
         occupied[table.cells[pick]] = True
     return poses
