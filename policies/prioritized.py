@@ -56,7 +56,7 @@ from __future__ import annotations
 
 from multicrane.sim.simulator import Simulator
 from multicrane.tasks.carrier_events import EventCarrier
-from multicrane.tasks.priority_rule import assign_in_rank, check_rank, ranked_pairs
+from multicrane.tasks.priority_rule import assign_in_rank, check_rank, list_ranks, ranked_pairs
 
 
 class PrioritizedPlanner:
@@ -89,7 +89,7 @@ class PrioritizedPlanner:
         self.max_expansions = max_expansions
         self.max_searches = max_searches
         self.rank = check_rank(rank)
-        self._list_rank = {c: i for i, c in enumerate(env.scenario.order)}
+        self._list_rank = list_ranks(env.scenario)
         self.stats: dict[str, int] = {}
         self._setup()
 

@@ -21,7 +21,7 @@ import numpy as np
 from multicrane.envs.decision_modes import task_level
 from multicrane.episodes.random_actions import random_legal_action
 from multicrane.sim.simulator import NOBODY
-from multicrane.tasks.priority_rule import check_rank, propose
+from multicrane.tasks.priority_rule import check_rank, list_ranks, propose
 
 
 def _book(env):
@@ -40,7 +40,7 @@ class TaskPrioritized:
         self.seed = seed
         self.max_searches = max_searches
         self.rank = check_rank(rank)
-        self._list_rank = {c: i for i, c in enumerate(self.env.scenario.order)}
+        self._list_rank = list_ranks(self.env.scenario)
 
     @property
     def stats(self) -> dict:

@@ -60,6 +60,7 @@ from multicrane.suite.plan import (
 )
 from multicrane.suite.play import make_env, makespan_of, results_dict, results_entry
 from multicrane.suite.results import read_results
+from multicrane.tasks.priority_rule import list_ranks
 
 LABEL = SEARCH  # the policy name of its results (the leaderboard's kind 'search')
 SOLVER_SECONDS = 2.0  # CP-SAT's limit per move
@@ -178,7 +179,7 @@ def improve(manifest: Manifest, instance: Instance, seconds: float, seed: int = 
     first = best.makespan
     events = None if instance.events == "none" else instance.events
     tasks = task_options(scenario, instance.cranes, instance.seed, events)
-    space = _Space(tasks, choices_of(tasks), {c: i for i, c in enumerate(scenario.order)},
+    space = _Space(tasks, choices_of(tasks), list_ranks(scenario),
                    KINDS + event_kinds(tasks, best.makespan))  # fmt: skip
     rng = np.random.default_rng(seed)
     tries = accepted = improved = stale = 0

@@ -26,6 +26,7 @@ from multicrane.core.codes import Status
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.replay.record import EpisodeRecord, resimulate
 from multicrane.sim.simulator import NOBODY
+from multicrane.tasks.priority_rule import list_ranks
 
 _INITIAL = int(Status.INITIAL)
 
@@ -94,7 +95,7 @@ class PlanFollower:
         self.env = base
         self.plan = plan
         self.seed = seed
-        self._list_rank = {c: i for i, c in enumerate(base.scenario.order)}
+        self._list_rank = list_ranks(base.scenario)
 
     def next_step(self, crane: int) -> Step | None:
         """The crane's next task: the first of its list whose component awaits a claim."""

@@ -20,6 +20,11 @@ from multicrane.tasks.book import TaskBook
 from multicrane.tasks.carrier import Carrier
 
 
+def list_ranks(scenario) -> dict[int, int]:
+    """Component -> its place in the scenario's list order (the rule's ``list_rank``)."""
+    return {c: i for i, c in enumerate(scenario.order)}
+
+
 def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
     """Ready (component, target) pairs, best first: ``(distance, comp, target)`` tuples over
     each candidate's ready compatible targets not in ``taken`` that a pose of its shape

@@ -37,16 +37,21 @@ class StaticPaths:
             return [UNREACHABLE] * len(targets)
         start = pickup[0]
         rel = tuple(j - start for j in pickup)
-        return [self._distances(rel, target, zone)[start] for target in targets]
+        out = []
+        for target in targets:
+            dist = self._distances(rel, target, zone)
+            out.append(UNREACHABLE if dist is None else dist[start])
+        return out
 
-    def _distances(self, rel: tuple[int, ...], target: int, zone: int):
-        """Moves from every position of the shape to the target's pose (cached)."""
+    def _distances(self, rel: tuple[int, ...], target: int, zone: int) -> list[int] | None:
+        """Moves from every position of the shape to the target's pose (cached); None when
+        no pose of the shape covers the target's cells."""
         if (rel, target) not in self._goal:
             cells = self.sim.site.target_cells[target]
             self._goal[(rel, target)] = goal_position(rel, cells)
         goal = self._goal[(rel, target)]
         if goal is None:
-            return _NOWHERE
+            return None
         key = (rel, goal, zone)
         dist = self._dist.get(key)
         if dist is None:
@@ -59,13 +64,3 @@ class StaticPaths:
             dist = breadth_first(fit, [goal], self.sim.site.move_delta).tolist()
             self._dist[key] = dist
         return dist
-
-
-class _Nowhere:
-    """The distances of a shape that covers no target's cells: unreachable from anywhere."""
-
-    def __getitem__(self, position: int) -> int:
-        return UNREACHABLE
-
-
-_NOWHERE = _Nowhere()

@@ -219,9 +219,7 @@ class TrainConfig:
             from multicrane.training.set_obs import SetLimits
 
             if not isinstance(self.set_limits, dict) or set(self.set_limits) != {
-                "components",
-                "cranes",
-                "tasks",
+                "components", "cranes", "tasks"
             }:
                 raise ConfigError(
                     f"set_limits={self.set_limits!r}: needs the keys components, cranes, tasks"
@@ -234,9 +232,13 @@ class TrainConfig:
             from multicrane.training.curriculum import CURRICULA
 
             if self.curriculum not in CURRICULA:
-                raise ConfigError(f"curriculum={self.curriculum!r}: one of {', '.join(CURRICULA)}")
+                raise ConfigError(
+                    f"curriculum={self.curriculum!r}: one of {', '.join(CURRICULA)}"
+                )
             if self.scenario != "set:train":
-                raise ConfigError(f"scenario={self.scenario!r}: a curriculum trains on 'set:train'")
+                raise ConfigError(
+                    f"scenario={self.scenario!r}: a curriculum trains on 'set:train'"
+                )
 
     def _check_keep_best(self) -> None:
         if not isinstance(self.keep_best, bool):

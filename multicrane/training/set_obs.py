@@ -42,7 +42,8 @@ from multicrane.envs.task_observation import (
     TASK_FEATURES,
     TaskLayout,
 )
-from multicrane.tasks.priority_rule import proposals
+from multicrane.sim.simulator import NOBODY
+from multicrane.tasks.priority_rule import list_ranks, proposals
 
 N_COMP = len(COMPONENT_FEATURES)
 N_CRANE = len(CRANE_FEATURES)
@@ -183,7 +184,7 @@ class Padder:
         env = getattr(env, "unwrapped", env)
         self.layout, self.limits, self.env = layout, limits, env
         if limits.hint:
-            self._list_rank = {c: i for i, c in enumerate(env.scenario.order)}
+            self._list_rank = list_ranks(env.scenario)
         C, N, P = layout.n_components, layout.n_cranes, layout.n_tasks
         ev = _has_events(layout)
         self.exact = SetLimits.of(layout) == limits and not ev and not limits.hint
@@ -210,14 +211,14 @@ class Padder:
         self.header = np.array([C, N, P], dtype=np.float32)
 
     def proposals(self) -> list[int]:
-        """Per crane, the task the prioritized planner would start for it now (-1: none);
-        every -1 without the hint column."""
+        """Per crane, the task the prioritized planner would start for it now (``NOBODY``:
+        none); every one ``NOBODY`` without the hint column."""
         if not self.limits.hint:
-            return [-1] * self.layout.n_cranes
+            return [NOBODY] * self.layout.n_cranes
         book = self.env.mode.task_book()
         return proposals(book, self._list_rank)
 
-    def pad(self, obs: np.ndarray, out: np.ndarray | None = None, proposed: int = -1
+    def pad(self, obs: np.ndarray, out: np.ndarray | None = None, proposed: int = NOBODY
             ) -> np.ndarray:  # fmt: skip
         """The padded vector of one flat observation (written into ``out`` if given);
         ``proposed``: the planner's task for the observing crane (the hint column)."""
@@ -231,7 +232,7 @@ class Padder:
         else:
             out[self.dst] = obs[: len(self.dst)]  # (a closed block after the tasks: left out)
             out[self.ones] = 1.0
-        if proposed >= 0:
+        if proposed != NOBODY:
             out[self.hint_at[proposed]] = 1.0
         return out
 
