@@ -125,6 +125,10 @@ def _imitation_options(p) -> None:
     p.add_argument("--imitate-soft", type=float, default=None, metavar="TAU",
                    help="with --imitate lookahead: fit softmax(-(makespan - best) / TAU) over "
                    "its candidates' makespans instead of its one choice (default: off)")
+    p.add_argument("--imitate-stop", type=float, default=None, metavar="SHARE",
+                   help="with --imitate: end each fit early once the greedy policy agrees with "
+                   "the teacher on this share of its decision rows (1: an exact fit; default: "
+                   "every epoch)")
     p.add_argument("--dagger", type=int, default=0, metavar="ROUNDS",
                    help="with --imitate (set policy): DAgger rounds after it, the teacher "
                    "labelling the policy's own episodes (default 0; docs/training.md)")
@@ -207,6 +211,7 @@ def build_config(args: argparse.Namespace):
         imitate_epochs=args.imitate_epochs,
         imitate_demos=args.imitate_demos,
         imitate_soft=args.imitate_soft,
+        imitate_stop=args.imitate_stop,
         dagger=args.dagger,
         expert_iteration=args.expert_iteration,
         round_episodes=args.round_episodes,

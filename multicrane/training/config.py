@@ -67,9 +67,12 @@ class TrainConfig:
     seeds share one set of teacher episodes. ``imitate_soft`` (with ``imitate="lookahead"``):
     fit soft targets at this temperature (in makespan steps) over the look-ahead's values of
     its candidates instead of its one choice (``multicrane.training.soft_targets``; None: the
-    choice). ``dagger`` (set policy, with ``imitate``): that
-    many DAgger rounds after the imitation, each labelling ``round_episodes`` episodes of
-    the policy with the teacher's choices (``multicrane.training.dagger``);
+    choice). ``imitate_stop``: every fit (imitation and each round) stops before
+    ``imitate_epochs`` once the greedy agreement on the decision rows reaches this share
+    (``imitation.clone``'s ``stop_at``; None: all epochs). ``dagger`` (set policy, with
+    ``imitate``): that many DAgger rounds after the imitation, each labelling
+    ``round_episodes`` episodes of the policy with the teacher's choices
+    (``multicrane.training.dagger``);
     ``expert_iteration``: that many rounds after those, each distilling ``round_episodes``
     episodes of the teacher's search over the policy (``multicrane.training.expert_iteration``;
     a search teacher such as ``"lookahead"``). ``keep_best``: at each curve point, also
@@ -114,6 +117,7 @@ class TrainConfig:
     imitate_epochs: int = 10
     imitate_demos: str | None = None
     imitate_soft: float | None = None
+    imitate_stop: float | None = None
     dagger: int = 0
     expert_iteration: int = 0
     round_episodes: int = 32
@@ -251,8 +255,9 @@ class TrainConfig:
             for name in ("imitate_demos", "dagger", "expert_iteration"):
                 if getattr(self, name):
                     raise ConfigError(f"{name}={getattr(self, name)!r}: needs imitate")
-            if self.imitate_soft is not None:
-                raise ConfigError(f"imitate_soft={self.imitate_soft!r}: needs imitate")
+            for name in ("imitate_soft", "imitate_stop"):
+                if getattr(self, name) is not None:
+                    raise ConfigError(f"{name}={getattr(self, name)!r}: needs imitate")
             return
         if not isinstance(self.imitate, str) or not self.imitate:
             raise ConfigError(f"imitate={self.imitate!r}: must be a teacher policy's name")
@@ -263,6 +268,10 @@ class TrainConfig:
         for name in ("dagger", "expert_iteration"):
             if getattr(self, name) and self.policy != "set":
                 raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
+        stop = self.imitate_stop
+        if stop is not None and (isinstance(stop, bool) or not isinstance(stop, int | float)
+                                 or not 0 < stop <= 1):  # fmt: skip
+            raise ConfigError(f"imitate_stop={stop!r}: must be a share of rows in (0, 1]")
         soft = self.imitate_soft
         if soft is not None:
             if isinstance(soft, bool) or not isinstance(soft, int | float) or not soft >= 0:

@@ -10,7 +10,8 @@ same still shows other states), asks the teacher for its joint action in every r
 reach (``imitation.demonstrate`` with a learner), adds those rows to all earlier ones
 (never dropping any) and fits the policy again on the whole set. An expert-iteration round
 (``multicrane.training.expert_iteration``) lets the teacher's search over the policy play
-and label its own episodes instead. ``improve`` runs ``dagger`` rounds, then
+and label its own episodes instead (a state an earlier expert-iteration round labelled
+keeps only the newest label). ``improve`` runs ``dagger`` rounds, then
 ``expert_iteration`` rounds; after each, the greedy policy plays the run's validation
 episodes (``eval_episodes``, reset seeds 2,000,000 ...) and the policy of the best round
 (the imitated one included) is the one kept.
@@ -24,6 +25,7 @@ rerun, or a run with more rounds, reads them instead of asking the teacher again
 from __future__ import annotations
 
 import copy
+import hashlib
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -75,13 +77,24 @@ def round_seed(run_seed: int, tag: str, round_: int) -> int:
     return int(sequence.generate_state(1)[0])
 
 
-def merge(a: Demonstrations, b: Demonstrations) -> Demonstrations:
-    """Every row of ``a`` then every row of ``b`` (values: NaN for rows without them)."""
-    arrays = {name: np.concatenate([getattr(a, name), getattr(b, name)])
+def merge(a: Demonstrations, b: Demonstrations, newest: bool = False) -> Demonstrations:
+    """Every row of ``a`` then every row of ``b`` (values: NaN for rows without them).
+    ``newest``: leave out the rows of ``a`` whose observation is also one of ``b``'s (a later
+    search labels that state again, and its label is the one to fit)."""
+    keep = slice(None)
+    if newest:
+        seen = {_digest(row) for row in b.observations}
+        keep = np.array([_digest(row) not in seen for row in a.observations], dtype=bool)
+    arrays = {name: np.concatenate([getattr(a, name)[keep], getattr(b, name)])
               for name in ("observations", "masks", "actions", "returns")}  # fmt: skip
     if a.values is not None or b.values is not None:
-        arrays["values"] = np.concatenate([_values(a), _values(b)])
+        arrays["values"] = np.concatenate([_values(a)[keep], _values(b)])
     return Demonstrations(**arrays, makespans=a.makespans + b.makespans)
+
+
+def _digest(row: np.ndarray) -> bytes:
+    """A 128-bit digest of an observation row (rows are kilobytes; a set of digests is small)."""
+    return hashlib.blake2b(np.ascontiguousarray(row).data, digest_size=16).digest()
 
 
 def _values(demos: Demonstrations) -> np.ndarray:
@@ -127,6 +140,8 @@ def label_round(cfg, params: dict, make_teacher: Callable, meta: dict, tag: str,
             "episodes": cfg.round_episodes, "epochs": cfg.imitate_epochs,
             "dagger_rounds_before": cfg.dagger if tag == "expit" else round_ - 1,
             "policy_kwargs": params.get("policy_kwargs")}  # fmt: skip
+    if cfg.imitate_stop is not None:  # older round files (made without it) stay readable
+        meta["stop"] = cfg.imitate_stop
     if path is not None and path.exists():
         try:
             return load_demos(path, meta)
@@ -150,7 +165,10 @@ def improve(cfg, params: dict, policy, make_teacher: Callable, demos: Demonstrat
     (``multicrane.training.expert_iteration``), on ``policy`` (already fitted to ``demos``,
     whose ``meta`` ``teaching.imitate`` made); the summary of every round. DAgger refits
     on every row so far; expert iteration on the rows of its own rounds (the guided search
-    is a better teacher than the first one), each round starting from the best policy."""
+    is a better teacher than the first one), each round starting from the best policy, a
+    state that a later round labels again keeping only that round's label (``merge``'s
+    ``newest``: two searches over different policies choose differently at the same early
+    states, and fitting both leaves the policy between their episodes)."""
     start = time.perf_counter()
     best = {"round": "imitation", **validate(policy, cfg)}
     kept = copy.deepcopy(policy.state_dict())
@@ -169,13 +187,13 @@ def improve(cfg, params: dict, policy, make_teacher: Callable, demos: Demonstrat
             policy.load_state_dict(kept)
             teacher = guided_teacher(make_teacher, policy)
             labelled = label_round(cfg, params, teacher, meta, tag, round_, log=log)
-            data = expert = labelled if expert is None else merge(expert, labelled)
+            data = expert = labelled if expert is None else merge(expert, labelled, newest=True)
         history = clone(policy, data, cfg.imitate_epochs, seed=cfg.seed + len(rounds),
-                        soft=cfg.imitate_soft)  # fmt: skip
+                        soft=cfg.imitate_soft, stop_at=cfg.imitate_stop)  # fmt: skip
         point = {"round": f"{tag}-{round_}", **validate(policy, cfg), "rows": len(data),
                  "played": "learner" if tag == "dagger" else "teacher",
                  "played_makespan_mean": _mean(labelled.makespans),
-                 "agreement": history[-1]["agreement"],
+                 "agreement": history[-1]["agreement"], "epochs_run": len(history),
                  "seconds": round(time.perf_counter() - tick, 3)}  # fmt: skip
         rounds.append(point)
         log(f"{cfg.name}: {tag} round {round_}: {len(data)} rows, the {point['played']} "

@@ -45,6 +45,7 @@ from multicrane.tasks.book import exclusive_masks, task_list
 from multicrane.training import soft_targets
 
 DEMO_STREAM = 2  # the demonstration copies' seed stream: [run seed, DEMO_STREAM]
+STOP_CHECK = 10  # ``clone(stop_at=...)`` measures the agreement every this many epochs
 
 
 @dataclass
@@ -209,13 +210,20 @@ def clone(
     value_coef: float = 0.5,
     seed: int = 0,
     soft: float | None = None,
+    stop_at: float | None = None,
 ) -> list[dict]:
     """Fit ``policy`` (a maskable actor-critic) to ``demos`` (see the module doc); one dict of
     losses per epoch, the last with ``agreement``: the share of decision rows whose greedy
     action is the teacher's. ``soft``: the temperature of soft targets over the rows'
-    candidate values (``soft_targets.targets``; None: the teacher's actions)."""
+    candidate values (``soft_targets.targets``; None: the teacher's actions). ``stop_at``:
+    stop before ``epochs`` once that agreement reaches this share (checked every
+    ``STOP_CHECK`` epochs; None: every epoch runs). A few decision rows that look alike to the
+    network can take thousands of steps to separate: a large ``epochs`` with ``stop_at=1``
+    fits a search's episode exactly without paying for the epochs it does not need."""
     if epochs < 1:
         raise ValueError(f"epochs must be at least 1, got {epochs}")
+    if stop_at is not None and not 0 < stop_at <= 1:
+        raise ValueError(f"stop_at must be a share in (0, 1], got {stop_at}")
     optimizer = th.optim.Adam(policy.parameters(), lr=learning_rate)
     scale = max(float(demos.returns.std()), 1.0) ** 2
     rng = np.random.default_rng([int(seed), DEMO_STREAM])
@@ -245,6 +253,11 @@ def clone(
             critic_sum += critic.item() * len(idx)
         history.append({"epoch": epoch + 1, "actor_nll": actor_sum / n,
                         "critic_mse": critic_sum / n})  # fmt: skip
+        if stop_at is not None and (epoch + 1) % STOP_CHECK == 0:
+            policy.set_training_mode(False)
+            if agreement(policy, demos) >= stop_at:
+                break
+            policy.set_training_mode(True)
     policy.set_training_mode(False)
     history[-1]["agreement"] = agreement(policy, demos)
     return history

@@ -55,7 +55,8 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
             save(demos, path, meta)
     venv.close()
     collected = time.perf_counter() - start
-    history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed, soft=cfg.imitate_soft)
+    history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed, soft=cfg.imitate_soft,
+                    stop_at=cfg.imitate_stop)
     finished = [m for m in demos.makespans if m is not None]
     summary = {
         "teacher": cfg.imitate,
@@ -70,6 +71,7 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
             None if demos.values is None else int(valued_rows(demos.values, demos.actions).sum())
         ),
         "history": history,
+        "epochs_run": len(history),
         "agreement": history[-1]["agreement"],
         "collect_seconds": round(collected, 3),
         "seconds": round(time.perf_counter() - start, 3),

@@ -16,7 +16,7 @@ from multicrane.tasks.book import exclusive_masks, task_list
 from multicrane.training import ConfigError, TrainConfig, train
 from multicrane.training.dagger import PaddedLearner, merge, rounds_file
 from multicrane.training.expert_iteration import PolicyPlanner, guided_teacher
-from multicrane.training.imitation import demonstrate
+from multicrane.training.imitation import Demonstrations, demonstrate
 from multicrane.training.model_policy import SetModelPolicy, load_run
 from multicrane.training.set_obs import SetLimits
 from multicrane.training.set_training import make_set_model, set_hyperparameters
@@ -98,6 +98,35 @@ def test_the_aggregate_keeps_every_labelled_row():
         whole = getattr(both, name)
         assert np.array_equal(whole[: len(a)], getattr(a, name))
         assert np.array_equal(whole[len(a) :], getattr(b, name))
+
+
+def _rows_of(observations: list[float], actions: list[int], values: bool) -> Demonstrations:
+    n = len(actions)
+    return Demonstrations(
+        observations=np.array(observations, dtype=np.float32)[:, None],
+        masks=np.ones((n, 4), dtype=bool), actions=np.array(actions),
+        returns=np.arange(n, dtype=np.float32), makespans=[n],
+        values=np.full((n, 4), float(n), dtype=np.float32) if values else None,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("values", [False, True])
+def test_a_later_round_s_label_replaces_an_earlier_one_at_the_same_state(values):
+    # Observations 1 and 2 were labelled by the earlier round (actions 1, 2) and again by the
+    # later one (actions 3, 3): only the later labels stay; state 0 keeps its one label.
+    early = _rows_of([0.0, 1.0, 2.0, 1.0], [0, 1, 2, 1], values=values)
+    late = _rows_of([2.0, 1.0, 5.0], [3, 3, 3], values=False)
+    both = merge(early, late, newest=True)
+    assert both.observations[:, 0].tolist() == [0.0, 2.0, 1.0, 5.0]
+    assert both.actions.tolist() == [0, 3, 3, 3]
+    assert both.returns.tolist() == [0.0, 0.0, 1.0, 2.0]
+    assert both.makespans == [4, 3]
+    if values:  # the earlier rows' values ride along; the later file had none: NaN
+        assert both.values[0].tolist() == [4.0] * 4 and np.isnan(both.values[1:]).all()
+    else:
+        assert both.values is None
+    # Without ``newest`` every row stays (DAgger's aggregate).
+    assert len(merge(early, late)) == 7
 
 
 def test_the_padded_learner_is_the_deployed_policy():
@@ -228,6 +257,9 @@ def test_the_train_command_passes_the_rounds_and_a_search_teacher():
             "--expert-iteration", "3", "--round-episodes", "16"]  # fmt: skip
     cfg = train_cli.build_config(parser.parse_args(argv))
     assert (cfg.dagger, cfg.expert_iteration, cfg.round_episodes) == (2, 3, 16)
+    assert cfg.imitate_stop is None
+    stop = train_cli.build_config(parser.parse_args([*argv, "--imitate-stop", "1"]))
+    assert stop.imitate_stop == 1.0
     assert isinstance(train_cli.teacher_of(cfg), LookaheadTeacher)
     cfg = train_cli.build_config(parser.parse_args(argv[:-4]))
     assert not isinstance(train_cli.teacher_of(cfg), LookaheadTeacher)  # the registry's

@@ -11,7 +11,7 @@ from conftest import one_torch_thread  # noqa: F401 (fixture)
 import policies
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.training import ConfigError, TrainConfig, train
-from multicrane.training.imitation import _rows, agreement, clone, demonstrate
+from multicrane.training.imitation import STOP_CHECK, _rows, agreement, clone, demonstrate
 from multicrane.training.model_policy import load_run
 from multicrane.training.set_obs import SetLimits
 from multicrane.training.set_training import make_set_model, set_hyperparameters
@@ -74,11 +74,37 @@ def test_cloning_makes_the_policy_follow_the_teacher():
     assert history[-1]["agreement"] > before + 0.2
 
 
+def test_a_fit_can_stop_once_it_agrees_with_the_teacher():
+    venv = _venv("e3s2", reward="makespan")
+    venv.seed(0)
+    demos = demonstrate(venv, policies.factory("prioritized"), 2, gamma=0.99)
+    model = make_set_model(venv, 0, set_hyperparameters({}), None)
+    history = clone(model.policy, demos, epochs=1000, batch_size=64, seed=0, stop_at=1.0)
+    # An exact fit, checked every STOP_CHECK epochs, long before the 1,000 allowed.
+    assert history[-1]["agreement"] == 1.0
+    assert len(history) < 1000 and len(history) % STOP_CHECK == 0
+    assert [h["epoch"] for h in history] == list(range(1, len(history) + 1))
+    # The same fit without the stop runs every epoch, the same ones first.
+    model = make_set_model(venv, 0, set_hyperparameters({}), None)
+    full = clone(model.policy, demos, epochs=len(history) + 3, batch_size=64, seed=0)
+    assert len(full) == len(history) + 3
+    assert [h["actor_nll"] for h in full[: len(history)]] == [h["actor_nll"] for h in history]
+    for bad in (0, 1.5, -0.1):
+        with pytest.raises(ValueError, match=f"stop_at must be a share in \\(0, 1\\], got {bad}"):
+            clone(model.policy, demos, epochs=1, stop_at=bad)
+
+
 def test_imitation_needs_maskable_ppo_and_a_teacher(tmp_path):
     with pytest.raises(ConfigError, match="needs the multi-agent mode and algo='maskable_ppo'"):
         TrainConfig("e3s2", paper=False, n_cranes=2, algo="ppo", imitate="prioritized")
     with pytest.raises(ConfigError, match="imitate_demos='d.npz': needs imitate"):
         TrainConfig("e3s2", paper=False, n_cranes=2, imitate_demos="d.npz")
+    with pytest.raises(ConfigError, match="imitate_stop=1.0: needs imitate"):
+        TrainConfig("e3s2", paper=False, n_cranes=2, imitate_stop=1.0)
+    for bad in (0, 1.01, True, "1"):
+        with pytest.raises(ConfigError, match=f"imitate_stop={bad!r}: must be a share of rows"):
+            TrainConfig("e3s2", paper=False, n_cranes=2, decisions="task", algo="maskable_ppo",
+                        imitate="prioritized", imitate_stop=bad)  # fmt: skip
     with pytest.raises(ConfigError, match="reward='makespan': a multi-agent option"):
         TrainConfig("E1S1", reward="makespan")
     cfg = TrainConfig("e3s2", paper=False, n_cranes=2, decisions="task", algo="maskable_ppo",
