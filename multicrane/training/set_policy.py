@@ -35,12 +35,14 @@ extractor and the pointer logits as its action logits (no extra linear layer).
 
 from __future__ import annotations
 
+import numpy as np
 import torch as th
 from gymnasium import spaces
 from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
+from multicrane.training.claims import claim_in_turn
 from multicrane.training.set_obs import HEADER, N_COMP, N_CRANE, N_TASK, SetLimits
 
 WAIT_BIAS = -2.0  # the wait logit's initial bias (see SetExtractor.__init__)
@@ -174,6 +176,26 @@ class SetPolicy(MaskableActorCriticPolicy):
         kwargs.setdefault("ortho_init", False)  # the extractor initialises its own heads
         kwargs.setdefault("share_features_extractor", True)
         super().__init__(*args, **kwargs)
+
+    claim_rows: int | None = None  # crane rows per copy: PPO's rollouts claim in turn
+
+    def forward(self, obs: th.Tensor, deterministic: bool = False,
+                action_masks: np.ndarray | None = None):  # fmt: skip
+        """MaskablePPO's rollout step. With ``claim_rows`` (set by the training run) the crane
+        rows of each copy sample one after the other as deployed (``claims.claim_in_turn``),
+        and ``action_masks`` is overwritten with the masks each row saw: the rollout buffer
+        stores that same array, so PPO's update evaluates each action under its own mask."""
+        if self.claim_rows is None or action_masks is None:
+            return super().forward(obs, deterministic, action_masks)
+        latent_pi, latent_vf = self.mlp_extractor(self.extract_features(obs))
+        masks = th.as_tensor(np.asarray(action_masks, dtype=bool).reshape(len(obs), -1))
+        limits = self.features_extractor.limits
+        actions, seen = claim_in_turn(obs, latent_pi, masks, limits, self.claim_rows,
+                                      deterministic)  # fmt: skip
+        action_masks[...] = seen.numpy().reshape(np.shape(action_masks))
+        distribution = self._get_action_dist_from_latent(latent_pi)
+        distribution.apply_masking(seen)
+        return actions, self.value_net(latent_vf), distribution.log_prob(actions)
 
     def _build_mlp_extractor(self) -> None:
         extractor = self.features_extractor

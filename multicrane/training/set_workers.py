@@ -63,7 +63,7 @@ class WorkerSetVecEnv(VecEnv):
         ]
         probe = make_block(1)
         self.limits = probe.limits
-        self.rows_per_copy = probe.n_agents
+        self.n_agents = probe.n_agents  # rows per copy, as in SetVecEnv
         super().__init__(n_envs * probe.n_agents, probe.observation_space, probe.action_space)
         probe.close()
         ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
@@ -99,7 +99,7 @@ class WorkerSetVecEnv(VecEnv):
     def step_async(self, actions: np.ndarray) -> None:
         flat, at = np.asarray(actions).reshape(-1), 0
         for conn, block in zip(self.conns, self.blocks, strict=True):
-            n = len(block) * self.rows_per_copy
+            n = len(block) * self.n_agents
             conn.send(("step", flat[at : at + n]))
             at += n
 

@@ -284,6 +284,8 @@ class Run:
             self.model, self.progress = loaded
             self.progress["sessions"] += 1
             self.log(f"{self.cfg.name}: resuming at step {self.model.num_timesteps}")
+        if self.cfg.policy == "set":  # the cranes of a copy claim in turn, as deployed
+            self.model.policy.claim_rows = self.venv.n_agents
         self._session_start = time.perf_counter()
         interrupt = _Interrupt()
         monitor = _RunMonitor(self, stop_at, interrupt, progress_bar)
