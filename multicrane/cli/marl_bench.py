@@ -120,6 +120,7 @@ def throughput(scenario: str, cranes: int, steps: int, which: str, workers: int 
         from multicrane.training.set_training import make_set_model
 
         model = make_set_model(venv, 0, run.params, None)
+        model.policy.claim_rows = venv.n_agents  # as the training run samples (claims.py)
     else:
         from multicrane.training.algorithms import make_model
 

@@ -211,6 +211,18 @@ def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, An
     return params
 
 
+def round_gamma(params: dict, decisions: str, reward: str, overrides: dict) -> dict:
+    """``params`` with ``gamma`` 1 at the task level with the makespan reward (unless
+    ``overrides`` sets it). A task-level step is a decision round of one to many simulated
+    steps, and a round in which a crane waits lasts one step: discounted per round, the same
+    steps cost less the more rounds they are cut into, so waiting looks cheap and PPO drifts
+    to it (docs/marl-results.md, "Exact fits"). The makespan reward counts every step alike;
+    undiscounted, the return is the makespan's own."""
+    if decisions == "task" and reward == "makespan" and "gamma" not in overrides:
+        return {**params, "gamma": 1.0}
+    return params
+
+
 def make_model(algo: Algorithm, venv, seed: int, params: dict, tensorboard_log: str | None):
     """A fresh SB3 model; the observation scaling goes into the policy."""
     params = dict(params)

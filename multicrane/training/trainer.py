@@ -31,7 +31,7 @@ import torch as th
 from stable_baselines3.common.callbacks import BaseCallback
 
 from multicrane.files import write_json_atomic
-from multicrane.training.algorithms import algorithm, hyperparameters, make_model
+from multicrane.training.algorithms import algorithm, hyperparameters, make_model, round_gamma
 from multicrane.training.checkpoints import (
     checkpoint_complete,
     load_checkpoint,
@@ -171,6 +171,7 @@ class Run:
             self.params = hyperparameters(
                 self.algo, cfg.scenario if cfg.paper else None, cfg.hyperparams
             )
+        self.params = round_gamma(self.params, cfg.decisions, cfg.reward, cfg.hyperparams)
         self.progress: dict[str, Any] = {}
         self.model = None
         self.venv = None
