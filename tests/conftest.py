@@ -123,6 +123,17 @@ def play_legal(env, policy, seed: int, steps: int, label: str) -> None:
         obs, *_ = env.step(acts)
 
 
+def load_tool(name: str):
+    """The module of ``tools/NAME.py`` (developer programs are scripts, not a package)."""
+    import importlib.util
+
+    path = Path(__file__).parents[1] / "tools" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 @pytest.fixture(scope="module")
 def one_torch_thread():
     """One torch thread: on a shared 2-core machine two threads make SB3 many times slower."""

@@ -145,11 +145,9 @@ def test_architecture_picture_stacks_the_rooms_in_layer_order():
 
 
 def test_architecture_module_map_is_the_one_the_source_writes():
-    import importlib.util
+    from conftest import load_tool
 
-    spec = importlib.util.spec_from_file_location("amap", ROOT / "tools" / "architecture_map.py")
-    amap = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(amap)
+    amap = load_tool("architecture_map")
     page = (ROOT / "docs" / "architecture.md").read_text()
     assert f"{amap.BEGIN}\n\n{amap.module_map()}\n{amap.END}" in page, (
         "the module map is out of date: run python3 tools/architecture_map.py"

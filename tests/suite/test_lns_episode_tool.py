@@ -3,8 +3,7 @@ episode as the plain environment, and the suite's search never ends longer than 
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
+from conftest import load_tool
 
 import policies
 from multicrane.envs.crane_env import MultiCraneEnv
@@ -13,18 +12,9 @@ from multicrane.replay.record import record_episode
 from multicrane.suite.lns import improve
 from multicrane.suite.play import make_env, makespan_of
 
-TOOL = Path(__file__).parents[2] / "tools" / "lns_episode.py"
-
-
-def _tool():
-    spec = importlib.util.spec_from_file_location("lns_episode", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
 
 def test_one_instance_is_the_scenarios_episode_and_the_search_keeps_or_shortens_it():
-    manifest, instance = _tool().one_instance("e3s2", 2, 4)
+    manifest, instance = load_tool("lns_episode").one_instance("e3s2", 2, 4)
     assert (instance.cranes, instance.seed, instance.events) == (2, 4, "none")
     env = make_env(manifest, instance, "task")
     start = record_episode(env, policies.make("greedy", env, 4), 4, "greedy")

@@ -43,13 +43,8 @@ def test_static_lengths_match_the_reference_loop(scenario, cranes):
 
 def test_the_reset_timing_tool_runs(capsys):
     """``tools/task_reset_speed.py`` (the figure of docs/performance.md) on a small site."""
-    import importlib.util
-    from pathlib import Path
+    from conftest import load_tool
 
-    path = Path(__file__).parents[2] / "tools" / "task_reset_speed.py"
-    spec = importlib.util.spec_from_file_location("task_reset_speed", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    module.main("e3s2", 2, 3)
+    load_tool("task_reset_speed").main("e3s2", 2, 3)
     out = capsys.readouterr().out
     assert out.startswith("e3s2, 2 cranes: ") and out.rstrip().endswith("3 resets")

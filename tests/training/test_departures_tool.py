@@ -3,13 +3,11 @@ report of a fit on one file measured on another."""
 
 from __future__ import annotations
 
-import importlib.util
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import one_torch_thread  # noqa: F401 (fixture)
+from conftest import load_tool, one_torch_thread  # noqa: F401 (fixture)
 
 import policies
 from multicrane.training import TrainConfig
@@ -17,14 +15,6 @@ from multicrane.training.imitation import demonstrate, save
 from multicrane.training.set_training import make_set_vec_env
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
-TOOL = Path(__file__).parents[2] / "tools" / "departures.py"
-
-
-def _tool():
-    spec = importlib.util.spec_from_file_location("departures", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _demos(tmp_path, teacher: str, seed: int, hint: bool = True) -> str:
@@ -40,7 +30,7 @@ def _demos(tmp_path, teacher: str, seed: int, hint: bool = True) -> str:
 
 
 def test_the_prioritized_planner_never_departs_from_its_own_hint(tmp_path):
-    tool = _tool()
+    tool = load_tool("departures")
     demos, limits = tool.read(_demos(tmp_path, "prioritized", 0))
     rows = demos.decisions
     assert rows.sum() > 5
@@ -54,7 +44,7 @@ def test_the_prioritized_planner_never_departs_from_its_own_hint(tmp_path):
 
 
 def test_the_report_fits_one_file_and_measures_both(tmp_path, monkeypatch, capsys):
-    tool = _tool()
+    tool = load_tool("departures")
     train, heldout = (_demos(tmp_path, "lookahead:candidates=4", s) for s in (0, 1))
     monkeypatch.setattr(sys, "argv", ["departures", train, heldout, "--epochs", "2"])
     tool.main()
