@@ -18,9 +18,10 @@ Needs the 'train' and 'replay' extras.
 
 1. multicrane train: one policy shared by every crane (resumes or reuses a finished run in
    --out). Task decisions (the default): the set policy (docs/training.md), which reads the
-   site's components and cranes as sets; it first imitates the look-ahead planner
-   (--imitate-episodes of its episodes), then MaskablePPO trains it on the makespan reward
-   for --steps crane decisions, keeping the best point on validation episodes. --decisions
+   site's components and cranes as sets, with the prioritized planner's proposal in every
+   task row (--planner-hint); it first imitates the look-ahead planner (--imitate-episodes
+   of its episodes), then MaskablePPO trains it on the undiscounted makespan reward for
+   --steps crane decisions, keeping the best point on validation episodes. --decisions
    motion: the MLP deciding every move, MaskablePPO from scratch.
 2. multicrane evaluate: the trained policy beside the prioritized and look-ahead planners,
    greedy and random cranes, on the same episodes; then multicrane seed-table: the same as
@@ -39,7 +40,7 @@ def register(sub) -> None:
     p.add_argument("--decisions", default="task", choices=tuple(DECISION_MODES),
                    help="task: the set policy picks tasks; motion: an MLP picks moves")  # fmt: skip
     p.add_argument("--steps", type=int, default=None,
-                   help="crane decisions of PPO (default: 100,000 task, 300,000 motion)")
+                   help="crane decisions of PPO (default: 400,000 task, 300,000 motion)")
     p.add_argument("--imitate-episodes", type=int, default=128,
                    help="task decisions: the look-ahead planner's episodes imitated first")
     p.add_argument("--algo", default="maskable_ppo", choices=("ppo", "maskable_ppo"))
@@ -56,15 +57,16 @@ def run(args: argparse.Namespace) -> int:
 
     task = decision_mode(args.decisions).task_level
     kind = "set" if task else args.algo
-    steps = args.steps or (100_000 if task else 300_000)
+    steps = args.steps or (400_000 if task else 300_000)
     run_dir = args.out / f"{args.scenario}-{args.cranes}c-{kind}-s{args.seed}"
     where = ["--scenario", args.scenario, "--cranes", str(args.cranes)]
     level = ["--decisions", args.decisions]
     what = "the set policy, task decisions" if task else f"{args.algo}, motion decisions"
     print(f"== 1. train {what} (one policy shared by {args.cranes} cranes) on {args.scenario}")
-    recipe = ["--policy", "set", "--imitate", "lookahead", "--imitate-episodes",
-              str(args.imitate_episodes), "--imitate-epochs", "30", "--reward", "makespan",
-              "--shaping", "0", "--set", "learning_rate=1e-4", "--keep-best"]  # fmt: skip
+    recipe = ["--policy", "set", "--planner-hint", "--imitate", "lookahead",
+              "--imitate-episodes", str(args.imitate_episodes), "--imitate-epochs", "30",
+              "--reward", "makespan", "--shaping", "0", "--set", "learning_rate=1e-3",
+              "--keep-best"]  # fmt: skip
     code = main(
         ["train", *where, *level, *(recipe if task else []), "--algo", args.algo,
          "--steps", str(steps), "--seed", str(args.seed),

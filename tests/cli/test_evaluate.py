@@ -157,8 +157,10 @@ def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
     policies = [r["policy"] for r in json.loads((run_dir / "evaluation.json").read_text())]
     planners = ["prioritized", "lookahead"] if decisions == "task" else ["prioritized"]
     assert policies[1:] == [*planners, "greedy", "random"]
-    if decisions == "task":  # imitated the look-ahead planner first
+    if decisions == "task":  # imitated the look-ahead planner first, with the planner's hint
         assert json.loads((run_dir / "result.json").read_text())["imitation"]["episodes"] == 4
+        config = json.loads((run_dir / "config.json").read_text())
+        assert config["planner_hint"] and config["hyperparams"] == {"learning_rate": 1e-3}
     assert "gap to bound" in (run_dir / "evaluation.md").read_text()
     assert "replay:" in out
     # Again: the finished training is reused, not repeated.
