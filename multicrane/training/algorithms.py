@@ -216,8 +216,8 @@ def round_gamma(params: dict, decisions: str, reward: str, overrides: dict) -> d
     ``overrides`` sets it). A task-level step is a decision round of one to many simulated
     steps, and a round in which a crane waits lasts one step: discounted per round, the same
     steps cost less the more rounds they are cut into, so waiting looks cheap and PPO drifts
-    to it (docs/marl-results.md, "Exact fits"). The makespan reward counts every step alike;
-    undiscounted, the return is the makespan's own."""
+    to it (docs/marl-results.md, "Why PPO drifted to waiting"). The makespan reward counts
+    every step alike; undiscounted, the return is the makespan's own."""
     if decisions == "task" and reward == "makespan" and "gamma" not in overrides:
         return {**params, "gamma": 1.0}
     return params
