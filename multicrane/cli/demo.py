@@ -12,7 +12,7 @@ DESCRIPTION = """The main job (bash tools/demo.sh runs it): train one policy sha
 crane of a site, compare it with the planners and the proven lower bound, and save a replay.
 Needs the 'train' and 'replay' extras.
 
-    multicrane demo                                   # hall-4c, 4 cranes, ~15 minutes
+    multicrane demo                                   # hall-4c, 4 cranes, ~11 minutes
     multicrane demo --scenario frame2-3c
     multicrane demo --decisions motion --scenario e2s2 --cranes 2 --steps 1000000
 
