@@ -165,9 +165,7 @@ class TrainConfig:
         if self.potential != "distance" and not self.paper:
             raise ConfigError(f"potential={self.potential!r}: a paper-mode option")
         if self.shaping_gamma is not None and (
-            not isinstance(self.shaping_gamma, (int, float))
-            or isinstance(self.shaping_gamma, bool)
-            or not 0 <= self.shaping_gamma <= 1
+            not _is_real(self.shaping_gamma) or not 0 <= self.shaping_gamma <= 1
         ):
             raise ConfigError(
                 f"shaping_gamma={self.shaping_gamma!r}: must be a number in [0, 1] or None"
@@ -269,12 +267,11 @@ class TrainConfig:
             if getattr(self, name) and self.policy != "set":
                 raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
         stop = self.imitate_stop
-        if stop is not None and (isinstance(stop, bool) or not isinstance(stop, int | float)
-                                 or not 0 < stop <= 1):  # fmt: skip
+        if stop is not None and (not _is_real(stop) or not 0 < stop <= 1):
             raise ConfigError(f"imitate_stop={stop!r}: must be a share of rows in (0, 1]")
         soft = self.imitate_soft
         if soft is not None:
-            if isinstance(soft, bool) or not isinstance(soft, int | float) or not soft >= 0:
+            if not _is_real(soft) or not soft >= 0:
                 raise ConfigError(f"imitate_soft={soft!r}: must be a temperature >= 0")
             if spec_name(self.imitate) != "lookahead":  # with its options or not
                 raise ConfigError(
@@ -344,11 +341,7 @@ class TrainConfig:
 def check_clone_weight(weight, imitate, demos) -> None:
     """``ConfigError`` unless ``weight`` is a finite number >= 0, and, when above 0, the run
     imitates a teacher (``imitate``) and keeps its rows in a file (``demos``)."""
-    if (
-        isinstance(weight, bool)
-        or not isinstance(weight, int | float)
-        or not (math.isfinite(weight) and weight >= 0)
-    ):
+    if not _is_real(weight) or not (math.isfinite(weight) and weight >= 0):
         raise ConfigError(f"clone_weight={weight!r}: must be a finite number >= 0")
     if weight > 0 and imitate is None:
         raise ConfigError(
@@ -359,3 +352,8 @@ def check_clone_weight(weight, imitate, demos) -> None:
             f"clone_weight={weight!r}: needs imitate_demos (the file of the teacher's rows, "
             "read again for PPO and on resume)"
         )
+
+
+def _is_real(value) -> bool:
+    """An int or a float, not a bool (``True`` is an ``int`` to Python)."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
