@@ -16,7 +16,9 @@ of ``multicrane.training.shaping``: without it, PPO learns to wait forever. The 
 (``multicrane.training.lean_ppo_motion_env``).
 
 Every value can be overridden (``TrainConfig.hyperparams``); ``features`` (ours, not an SB3
-setting) picks the features extractor by name (``multicrane.training.grid_cnn``).
+setting) picks the features extractor by name (``multicrane.training.grid_cnn``), and
+``anneal_lr`` (as the lean PPO's, off by default for SB3's learners) decays the learning rate
+linearly to 0 over the run's budget.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from gymnasium import spaces
 from sb3_contrib import MaskablePPO
 from stable_baselines3 import A2C, DQN, PPO
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from stable_baselines3.common.utils import LinearSchedule
 
 from multicrane.training.grid_cnn import features_extractor
 from multicrane.training.lean_ppo import LeanPPO, default_hyperparameters, motion_hyperparameters
@@ -195,7 +198,7 @@ def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, An
     if config is not None and algo.off_policy:
         params["gamma"] = paper_gamma(config)
     accepted = set(inspect.signature(algo.cls.__init__).parameters) - {"self", "policy", "env"}
-    accepted |= {"obs_scale", "features"}
+    accepted |= {"obs_scale", "features", "anneal_lr"}
     for key, value in overrides.items():
         if key not in accepted or key in FIXED_SETTINGS:
             raise ValueError(
@@ -204,10 +207,32 @@ def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, An
             )
         if key == "features":
             features_extractor(value)  # ValueError naming the choices
+        if key == "anneal_lr":
+            check_anneal_lr(value)
         if key == "policy_kwargs" and isinstance(value, dict):
             params["policy_kwargs"] = {**params.get("policy_kwargs", {}), **value}
         else:
             params[key] = value
+    return params
+
+
+def check_anneal_lr(value: Any) -> None:
+    """ValueError unless ``anneal_lr`` is a bool."""
+    if not isinstance(value, bool):
+        raise ValueError(f"anneal_lr={value!r}: must be True or False")
+
+
+def with_lr_schedule(cls: type, params: dict) -> dict:
+    """``params`` for constructing ``cls``: with ``anneal_lr``, an SB3 learner's learning rate
+    becomes a linear decay from its value to 0 over the run's budget (SB3 reads it against its
+    progress, which a resumed run continues). The lean PPO anneals by itself."""
+    signature = inspect.signature(cls.__init__).parameters
+    if "anneal_lr" in signature:
+        return params
+    params = dict(params)
+    if params.pop("anneal_lr", False):
+        start = float(params.get("learning_rate", signature["learning_rate"].default))
+        params["learning_rate"] = LinearSchedule(start, 0.0, 1.0)
     return params
 
 
@@ -225,7 +250,7 @@ def round_gamma(params: dict, decisions: str, reward: str, overrides: dict) -> d
 
 def make_model(algo: Algorithm, venv, seed: int, params: dict, tensorboard_log: str | None):
     """A fresh SB3 model; the observation scaling goes into the policy."""
-    params = dict(params)
+    params = with_lr_schedule(algo.cls, params)
     policy_kwargs = dict(params.pop("policy_kwargs", {}))
     obs_scale = float(params.pop("obs_scale", algo.obs_scale))
     extractor = features_extractor(params.pop("features", "flat")) or ScaledFlatten

@@ -115,9 +115,10 @@ def make_set_model(venv, seed: int, params: dict[str, Any], tensorboard_log: str
     """A fresh MaskablePPO with ``SetPolicy`` sized to ``venv.limits``."""
     from sb3_contrib import MaskablePPO
 
+    from multicrane.training.algorithms import with_lr_schedule
     from multicrane.training.set_policy import SetPolicy
 
-    params = dict(params)
+    params = with_lr_schedule(MaskablePPO, params)
     policy_kwargs = dict(params.pop("policy_kwargs", {}))
     fx = dict(policy_kwargs.pop("features_extractor_kwargs", {}))
     fx["limits"] = venv.limits.to_dict()
