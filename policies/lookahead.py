@@ -29,6 +29,12 @@ the learned policy's scores instead of the shortest static paths, and the learne
 joint action is one more candidate; the rollouts still judge (docs/marl-results.md, "Search at
 decision time").
 
+A search over a trained policy: with ``base`` a run directory on the command line
+(``lookahead:base=runs/hall-s0``; ``policies.registry`` loads it as
+``multicrane.training.expert_iteration.PolicyPlanner``) the learned set policy proposes the
+round's first candidate and finishes every copy, so the search improves on the policy rather
+than on the planner.
+
 A time budget: with ``budget`` (seconds per round) the search stops trying candidates once the
 next rollout would likely not end within it (the round's mean rollout so far as its cost; the
 planner's own joint action is always tried): a planner for real time, whose choices then

@@ -17,11 +17,12 @@ directory or of its ``model.zip`` (needs the ``train`` extra; the model acts gre
 mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything
 else the single-agent benchmark mode.
 ``options`` go to the policy's constructor (e.g. ``rank="nearest"`` for ``prioritized``,
-``patience`` for ``greedy``, ``candidates``, ``budget`` and ``guide`` (a run directory)
-for ``lookahead``, ``deterministic`` and, in the multi-agent mode, ``break_waits`` for a trained
-model: ``multicrane.training.model_policy``). A name may carry them itself, as the command
-line gives them: ``NAME:KEY=VALUE,KEY=VALUE`` (``lookahead:candidates=20``,
-``prioritized:rank=nearest``; ``split_spec``); the whole text is then the policy's label.
+``patience`` for ``greedy``, ``candidates``, ``budget``, ``guide`` and ``base`` (run
+directories) for ``lookahead``, ``deterministic`` and, in the multi-agent mode,
+``break_waits`` for a trained model: ``multicrane.training.model_policy``). A name may
+carry them itself, as the command line gives them: ``NAME:KEY=VALUE,KEY=VALUE``
+(``lookahead:candidates=20``, ``prioritized:rank=nearest``; ``split_spec``); the whole text
+is then the policy's label.
 
 Seeding rule. A policy is made for one episode, the one ``env.reset(seed=seed)`` starts.
 Whatever it draws at random comes from its own generator ``np.random.default_rng([seed, 1])``
@@ -150,17 +151,32 @@ class Factory:
         if given:
             self.label = str(name)
         if self.name == "lookahead" and isinstance(self.options.get("guide"), str | Path):
-            self.options["guide"] = self._guide(self.options["guide"])
+            self.options["guide"] = self._trained("guide", self.options["guide"])
+        if self.name == "lookahead" and isinstance(self.options.get("base"), str | Path):
+            self.options["base"] = self._rollout_base(self.options["base"])
         if paper is not None:
             self.check(paper)
 
-    def _guide(self, path) -> Factory:
-        """The trained model a look-ahead's ``guide`` names, loaded once."""
-        guide = Factory(str(path), paper=False)
-        if guide.model is None:
-            raise PolicyError(f"policy {self.label!r}: guide={str(path)!r} is not a trained "
+    def _trained(self, key: str, path) -> Factory:
+        """The trained model a look-ahead's ``guide`` or ``base`` names, loaded once."""
+        trained = Factory(str(path), paper=False)
+        if trained.model is None:
+            raise PolicyError(f"policy {self.label!r}: {key}={str(path)!r} is not a trained "
                               "model (a run directory of multicrane train)")  # fmt: skip
-        return guide
+        return trained
+
+    def _rollout_base(self, path) -> Callable:
+        """A look-ahead's ``base`` from a run directory: its set policy, greedy with claims
+        as deployed, proposes each round's first candidate and finishes every copy
+        (``multicrane.training.expert_iteration.PolicyPlanner``)."""
+        trained = self._trained("base", path)
+        if getattr(trained.config, "policy", "mlp") != "set":
+            raise PolicyError(f"policy {self.label!r}: base={str(path)!r} is not a set policy "
+                              "(multicrane train --policy set)")  # fmt: skip
+        from multicrane.training.expert_iteration import PolicyPlanner
+
+        policy = trained.model.policy
+        return lambda env: PolicyPlanner(policy, env)
 
     def _load_model(self) -> None:
         path = Path(self.name)

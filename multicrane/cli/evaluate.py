@@ -28,7 +28,8 @@ and seeds.
 A policy is optimal (paper mode), prioritized (multi-agent), greedy, random, lookahead (task
 decisions), or a training run directory (multicrane train --out; needs the 'train' extra),
 with options as NAME:KEY=VALUE,... (lookahead:candidates=20, prioritized:rank=nearest; the
-look-ahead guided by a trained model: lookahead:guide=RUN_DIR). Every policy plays the same
+look-ahead guided by a trained model: lookahead:guide=RUN_DIR; over a trained model, whose
+rollouts it finishes: lookahead:base=RUN_DIR). Every policy plays the same
 episodes: reset seeds --seed .. --seed + episodes - 1 (default: the evaluation seeds training
 uses, 1000000..). Trained models act greedily. Prints, per policy: mean return ± standard
 error over episodes, success rate, mean steps to finish (finished episodes), mean steps, and

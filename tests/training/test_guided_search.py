@@ -69,3 +69,29 @@ def test_the_guided_search_finishes_an_episode_from_the_spec(run_dir):
     search = made(env, 2)
     episode = run_episode(env, search, seed=2)
     assert episode["success"] and search.rollouts > 0
+
+
+def test_a_trained_base_finishes_the_copies_and_the_search_is_no_later_than_it(run_dir):
+    """``lookahead:base=RUN``: the rollouts finish with the trained policy (greedy, claims as
+    deployed) instead of the prioritized planner; candidates 0 leaves only the base's own
+    joint action and waiting, so the search plays no later than the policy alone."""
+    env = _env()
+    made = policies.factory(f"lookahead:candidates=0,base={run_dir}")
+    alone = policies.factory(str(run_dir))
+    for seed in (0, 1, 2):
+        search = made(env, seed)
+        searched = run_episode(env, search, seed=seed, record=True)
+        plain = run_episode(env, alone(env, seed), seed=seed)
+        assert searched["success"] and search.rollouts > 0
+        assert searched["steps"] <= plain["steps"]
+    # The base is the trained policy: with it as the planner, the round's proposal is its own.
+    observations, _ = env.reset(seed=4)
+    search = made(env, 4)
+    assert search.base(env)(observations) == alone(env, 4)(observations)
+
+
+def test_a_base_must_be_a_trained_set_policy(tmp_path):
+    with pytest.raises(policies.PolicyError, match="base='greedy' is not a trained model"):
+        policies.factory("lookahead:base=greedy")
+    with pytest.raises(policies.PolicyError, match="no such run directory"):
+        policies.factory(f"lookahead:base={tmp_path / 'none'}")
