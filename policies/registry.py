@@ -150,10 +150,11 @@ class Factory:
             self._load_model()
         if given:
             self.label = str(name)
-        if self.name == "lookahead" and isinstance(self.options.get("guide"), str | Path):
-            self.options["guide"] = self._trained("guide", self.options["guide"])
-        if self.name == "lookahead" and isinstance(self.options.get("base"), str | Path):
-            self.options["base"] = self._rollout_base(self.options["base"])
+        if self.name == "lookahead":  # run directories named by its options, loaded once
+            if isinstance(self.options.get("guide"), str | Path):
+                self.options["guide"] = self._trained("guide", self.options["guide"])
+            if isinstance(self.options.get("base"), str | Path):
+                self.options["base"] = self._rollout_base(self.options["base"])
         if paper is not None:
             self.check(paper)
 

@@ -207,19 +207,13 @@ def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, An
             )
         if key == "features":
             features_extractor(value)  # ValueError naming the choices
-        if key == "anneal_lr":
-            check_anneal_lr(value)
+        if key == "anneal_lr" and not isinstance(value, bool):
+            raise ValueError(f"anneal_lr={value!r}: must be True or False")
         if key == "policy_kwargs" and isinstance(value, dict):
             params["policy_kwargs"] = {**params.get("policy_kwargs", {}), **value}
         else:
             params[key] = value
     return params
-
-
-def check_anneal_lr(value: Any) -> None:
-    """ValueError unless ``anneal_lr`` is a bool."""
-    if not isinstance(value, bool):
-        raise ValueError(f"anneal_lr={value!r}: must be True or False")
 
 
 def with_lr_schedule(cls: type, params: dict) -> dict:
