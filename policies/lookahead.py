@@ -36,7 +36,7 @@ round's first candidate and finishes every copy, so the search improves on the p
 than on the planner.
 
 A time budget: with ``budget`` (seconds per round) the search stops trying candidates once the
-next rollout would likely not end within it (the round's mean rollout so far as its cost; the
+next rollout might not end within it (the round's longest rollout so far as its cost; the
 planner's own joint action is always tried): a planner for real time, whose choices then
 depend on the machine's speed (no budget, the default, is deterministic).
 """
@@ -114,16 +114,18 @@ class TaskLookahead:
 
     def _scores(self, joints: list[dict], began: float) -> list[int]:
         """Each joint action's finishing makespan on a copy; with a budget, those that the
-        time left would likely not cover are not played (``UNFINISHED``)."""
+        time left might not cover are not played (``UNFINISHED``)."""
         if self.budget is None:
             return [self._finish(joint) for joint in joints]
-        scores = [self._finish(joints[0])]  # the planner's own, always
-        for joint in joints[1:]:
-            spent = time.perf_counter() - began
-            if spent * (1 + 1 / len(scores)) > self.budget:  # spent + the mean rollout
+        scores: list[int] = []
+        longest = 0.0  # the longest rollout of the round so far
+        for k, joint in enumerate(joints):
+            start = time.perf_counter()
+            if k and start - began + longest > self.budget:  # the base's own: always
                 scores.append(UNFINISHED)
-            else:
-                scores.append(self._finish(joint))
+                continue
+            scores.append(self._finish(joint))
+            longest = max(longest, time.perf_counter() - start)
         return scores
 
     def _candidates(self, base: dict, observations) -> list[dict]:
@@ -159,12 +161,18 @@ class TaskLookahead:
 
     def _copy(self):
         """A deep copy of the environment that shares what no episode changes (the scenario,
-        the site, the task list and the static path lengths, a cache of the site's)."""
+        the site, the task list and the static path lengths, a cache of the site's) and
+        starts the episode's trace afresh: a rollout is never recorded, and the trace, which
+        grows with the episode, was half of a copy's cost."""
         env = self.env
-        book = env.mode.task_book()
+        mode = env.mode
+        book = mode.task_book()
         shared = (env.scenario, env.sim.scenario, env.sim.site, env.observation_layout,
                   book.tasks, book.static)  # fmt: skip
-        return copy.deepcopy(env, {id(x): x for x in shared})
+        memo = {id(x): x for x in shared}
+        for trace in (mode.trace, mode.trace_events, mode.trace_rewards, mode.decisions):
+            memo[id(trace)] = []
+        return copy.deepcopy(env, memo)
 
     def _finish(self, joint: dict) -> int:
         """The makespan of playing ``joint`` on a copy, then the base policy."""

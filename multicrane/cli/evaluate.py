@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from functools import lru_cache
 from pathlib import Path
@@ -62,6 +63,10 @@ def register(sub) -> None:
     p.add_argument("--workers", type=int, default=1,
                    help="processes for a scenario set's (policy, site) pairs (one torch "
                    "thread each; same results as 1)")  # fmt: skip
+    p.add_argument("--threads", type=int, default=1,
+                   help="torch threads of the trained models in this process (default 1: "
+                   "a small network's forward pass is slower on more; timings stay honest "
+                   "beside other processes)")  # fmt: skip
     p.set_defaults(func=run)
 
 
@@ -78,6 +83,8 @@ def evaluate_all(args: argparse.Namespace, advance=None) -> list[dict]:
     else:
         seeds = list(range(args.seed, args.seed + args.episodes))
     factories = [policies.factory(spec, paper=paper) for spec in args.policy]  # fail early
+    if "torch" in sys.modules:  # a factory loaded a trained model (as policy, guide or base)
+        sys.modules["torch"].set_num_threads(args.threads)
     events = None if paper else run_events(args.events, factories)
     if not paper and args.scenario and is_set_ref(args.scenario):
         return _evaluate_set(args, factories, seeds, advance, events)
@@ -237,6 +244,8 @@ def run(args: argparse.Namespace) -> int:
         return error("--episodes must be at least 1")
     if args.workers < 1:
         return error("--workers must be at least 1")
+    if args.threads < 1:
+        return error(f"--threads {args.threads}: must be at least 1")
     from multicrane.scenario.named_sets import is_set_ref
 
     if args.workers > 1 and not (args.scenario and is_set_ref(args.scenario)):

@@ -226,8 +226,9 @@ class SetActor:
 
     def logits(self, batch, masks) -> th.Tensor:
         """The masked logits, one row per observation (``BLOCKED`` where not allowed)."""
-        self.extractor.eval()
-        with th.no_grad():
+        if self.extractor.training:  # eval() walks every submodule: once, not every call
+            self.extractor.eval()
+        with th.inference_mode():
             logits = self.extractor(th.as_tensor(batch))[:, : self.limits.n_actions]
             return th.where(th.as_tensor(masks), logits, th.full_like(logits, BLOCKED))
 

@@ -107,6 +107,23 @@ def test_evaluate_program_compares_a_trained_model_with_planners(paper_run, tmp_
     assert by["ppo (e1s1-ppo)"]["return_mean"] <= by["optimal"]["return_mean"] + 1e-9
 
 
+def test_evaluate_program_sets_the_torch_threads_of_trained_models(paper_run, capsys):
+    """--threads N (default 1) sets torch's threads once a trained model is loaded: a small
+    network is slower on more, and a search's timings beside other processes are honest."""
+    import torch
+
+    before = torch.get_num_threads()
+    try:
+        for threads in (2, 1):
+            assert main(["evaluate", "--paper", "E1S1", "--policy", str(paper_run),
+                         "--episodes", "1", "--threads", str(threads)]) == 0  # fmt: skip
+            assert torch.get_num_threads() == threads
+    finally:
+        torch.set_num_threads(before)
+    assert main(["evaluate", "--paper", "E1S1", "--policy", "greedy", "--threads", "0"]) == 2
+    assert "--threads 0: must be at least 1" in capsys.readouterr().err
+
+
 def test_evaluate_program_refuses_a_model_of_the_other_mode(paper_run, capsys):
     code = main(["evaluate", "--scenario", "e1s1", "--cranes", "2", "--policy", str(paper_run)])
     assert code == 2

@@ -43,6 +43,24 @@ def test_lookahead_is_legal_and_leaves_the_real_site_alone():
         obs, *_ = env.step(actions)
 
 
+def test_a_rollout_copy_starts_its_trace_afresh_and_leaves_the_episode_recordable():
+    """The copies share no trace with the episode (a rollout is never recorded), and the real
+    episode's trace stays whole: one physical joint action per simulated step."""
+    env = task_env("e3s2", 2)
+    obs, _ = env.reset(seed=2)
+    policy = TaskLookahead(env)
+    for _ in range(4):
+        obs, *_ = env.step(policy(obs))
+    trace = [list(step) for step in env.mode.trace]
+    copy = policy._copy()
+    assert copy.mode.trace == [] and copy.mode.decisions == []
+    assert copy.mode.trace is not env.mode.trace
+    copy.step(policy(obs))
+    assert env.mode.trace == trace and len(copy.mode.trace) > 0
+    episode = run_episode(env, TaskLookahead(env), seed=5)
+    assert len(env.mode.trace) == episode["steps"]  # one physical joint action per step
+
+
 def test_lookahead_is_deterministic():
     runs = []
     for _ in range(2):
