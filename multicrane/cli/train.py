@@ -141,6 +141,10 @@ def _imitation_options(p) -> None:
     p.add_argument("--clone-weight", type=float, default=0.0, metavar="W",
                    help="with --imitate and --imitate-demos: after every PPO update, cloning "
                    "steps on the teacher's rows, their gradient times W (default 0: none)")
+    p.add_argument("--init-from", default=None, metavar="RUN_DIR",
+                   help="start from the policy weights of this finished run (same algorithm "
+                   "and network); with --imitate, skip the first imitation and run only "
+                   "--dagger / --expert-iteration rounds on it (docs/training.md)")
     p.add_argument("--planner-hint", action="store_true",
                    help="set policy: each task row also shows whether the prioritized planner "
                    "would start it for the crane now (the policy learns where to depart from it)")
@@ -218,6 +222,7 @@ def build_config(args: argparse.Namespace):
         keep_best=args.keep_best,
         clone_weight=args.clone_weight,
         planner_hint=args.planner_hint,
+        init_from=None if args.init_from is None else str(args.init_from),
     )
 
 

@@ -84,6 +84,10 @@ class TrainConfig:
     imitated policy (``multicrane.training.clone_term``; 0: none). ``planner_hint`` (set
     policy): each task row also shows whether the prioritized planner would start it for the
     observing crane now (``multicrane.training.set_obs``, the ``proposed`` column).
+    ``init_from``: a finished run directory whose policy weights the fresh run starts from
+    (``multicrane.training.warm_start``; same algorithm, policy kind and network); with
+    ``imitate`` it skips the first imitation and runs only the rounds (``dagger``,
+    ``expert_iteration``) on that policy, e.g. expert iteration after PPO.
     """
 
     scenario: str = "E2S2"
@@ -124,6 +128,7 @@ class TrainConfig:
     keep_best: bool = False
     clone_weight: float = 0.0
     planner_hint: bool = False
+    init_from: str | None = None
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -249,6 +254,16 @@ class TrainConfig:
             raise ConfigError("keep_best=True: needs eval_every > 0 (the points it chooses from)")
 
     def _check_imitation(self) -> None:
+        init = self.init_from
+        if init is not None and (not isinstance(init, str) or not init):
+            raise ConfigError(f"init_from={init!r}: must be a run directory's path")
+        if init is not None and self.imitate is not None and not (
+            self.dagger or self.expert_iteration
+        ):
+            raise ConfigError(
+                f"init_from={init!r} with imitate={self.imitate!r}: a warm start skips the "
+                "first imitation and runs only its rounds: give dagger or expert_iteration"
+            )
         if self.imitate is None:
             for name in ("imitate_demos", "dagger", "expert_iteration"):
                 if getattr(self, name):

@@ -14,7 +14,7 @@ and label its own episodes instead (a state an earlier expert-iteration round la
 keeps only the newest label). ``improve`` runs ``dagger`` rounds, then
 ``expert_iteration`` rounds; after each, the greedy policy plays the run's validation
 episodes (``eval_episodes``, reset seeds 2,000,000 ...) and the policy of the best round
-(the imitated one included) is the one kept.
+(the imitated one, or a warm start's, included) is the one kept.
 
 A round's rows depend on the run's seed (its policy played or guided them): with
 ``imitate_demos`` they are kept beside that file, one file per seed and round
@@ -163,17 +163,19 @@ def improve(cfg, params: dict, policy, make_teacher: Callable, demos: Demonstrat
             meta: dict, log=print) -> dict:  # fmt: skip
     """``cfg.dagger`` DAgger rounds, then ``cfg.expert_iteration`` rounds of expert iteration
     (``multicrane.training.expert_iteration``), on ``policy`` (already fitted to ``demos``,
-    whose ``meta`` ``teaching.imitate`` made); the summary of every round. DAgger refits
+    whose ``meta`` ``teaching.imitate`` made; ``demos`` None: a warm start's trained policy,
+    with no first rows); the summary of every round. DAgger refits
     on every row so far; expert iteration on the rows of its own rounds (the guided search
     is a better teacher than the first one), each round starting from the best policy, a
     state that a later round labels again keeping only that round's label (``merge``'s
     ``newest``: two searches over different policies choose differently at the same early
     states, and fitting both leaves the policy between their episodes)."""
     start = time.perf_counter()
-    best = {"round": "imitation", **validate(policy, cfg)}
+    first = "imitation" if demos is not None else "init"  # None: a warm start's policy
+    best = {"round": first, **validate(policy, cfg)}
     kept = copy.deepcopy(policy.state_dict())
     rounds = [dict(best)]
-    log(f"{cfg.name}: imitated policy, validation makespan {best['makespan_mean']:.1f}")
+    log(f"{cfg.name}: {first} policy, validation makespan {best['makespan_mean']:.1f}")
     schedule = [("dagger", r) for r in range(1, cfg.dagger + 1)]
     schedule += [("expit", r) for r in range(1, cfg.expert_iteration + 1)]
     expert = None
@@ -182,7 +184,7 @@ def improve(cfg, params: dict, policy, make_teacher: Callable, demos: Demonstrat
         if tag == "dagger":
             labelled = label_round(cfg, params, make_teacher, meta, tag, round_,
                                    learner_of(policy), log)  # fmt: skip
-            data = demos = merge(demos, labelled)
+            data = demos = labelled if demos is None else merge(demos, labelled)
         else:
             policy.load_state_dict(kept)
             teacher = guided_teacher(make_teacher, policy)

@@ -47,8 +47,10 @@ from multicrane.training.run_envs import (
 )
 from multicrane.training.run_lock import RunLock
 from multicrane.training.set_training import make_set_model, set_hyperparameters
+from multicrane.training.warm_start import warm_start
 
 RESULT = "result.json"
+TEACHING = ("init_from", "imitation", "best", "clone")  # what result.json keeps of progress
 BEST = "best.zip"  # keep_best: the model of the best validation point so far
 PACKAGES = (
     "multicrane",
@@ -275,6 +277,8 @@ class Run:
                 "seconds": 0.0,
                 "sessions": 1,
             }
+            if self.cfg.init_from is not None:
+                self.progress["init_from"] = warm_start(self.model, self.cfg, self.log)
             if self.cfg.imitate is not None:
                 from multicrane.training.teaching import imitate
 
@@ -338,7 +342,7 @@ class Run:
             "eval_seconds": round(time.perf_counter() - start, 3),
             "steps_per_second": round(self.model.num_timesteps / max(train_seconds, 1e-9), 1),
             "sessions": self.progress["sessions"],
-            **{k: self.progress[k] for k in ("imitation", "best", "clone") if k in self.progress},
+            **{k: self.progress[k] for k in TEACHING if k in self.progress},
             **_curriculum(self.venv),
             "versions": versions(),
             "python": platform.python_version(),
