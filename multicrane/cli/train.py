@@ -222,7 +222,7 @@ def build_config(args: argparse.Namespace):
         keep_best=args.keep_best,
         clone_weight=args.clone_weight,
         planner_hint=args.planner_hint,
-        init_from=None if args.init_from is None else str(args.init_from),
+        init_from=args.init_from,
     )
 
 

@@ -50,7 +50,7 @@ from multicrane.training.set_training import make_set_model, set_hyperparameters
 from multicrane.training.warm_start import warm_start
 
 RESULT = "result.json"
-TEACHING = ("init_from", "imitation", "best", "clone")  # what result.json keeps of progress
+KEPT_PROGRESS = ("init_from", "imitation", "best", "clone")  # into result.json
 BEST = "best.zip"  # keep_best: the model of the best validation point so far
 PACKAGES = (
     "multicrane",
@@ -342,7 +342,7 @@ class Run:
             "eval_seconds": round(time.perf_counter() - start, 3),
             "steps_per_second": round(self.model.num_timesteps / max(train_seconds, 1e-9), 1),
             "sessions": self.progress["sessions"],
-            **{k: self.progress[k] for k in TEACHING if k in self.progress},
+            **{k: self.progress[k] for k in KEPT_PROGRESS if k in self.progress},
             **_curriculum(self.venv),
             "versions": versions(),
             "python": platform.python_version(),
