@@ -35,6 +35,19 @@ A search over a trained policy: with ``base`` a run directory on the command lin
 round's first candidate and finishes every copy, so the search improves on the policy rather
 than on the planner.
 
+Agent-by-agent rollout: with ``cranes`` = m > 1 the round's first m idle cranes search one
+after the other (the multiagent rollout of Bertsekas, "Multiagent rollout algorithms and
+reinforcement learning", 2020): the next idle crane tries its candidates in the best joint
+action found so far, the cranes before it keeping their choices, and the best copy is kept
+(the joint action so far on ties, so each crane can only shorten the round's expected
+finish). A round with k idle cranes then costs up to about k times the rollouts.
+
+Two base heuristics: with another ``base`` and ``planner=True`` each joint action is
+finished twice, by the base and by the prioritized planner, and its value is the shorter
+finish; the planner's own joint action is one more candidate (rollout with several base
+heuristics, Bertsekas, Tsitsiklis and Wu 1997: the search then improves on both). It costs
+about 1.5 times the rollouts (the planner's are the cheaper).
+
 A time budget: with ``budget`` (seconds per round) the search stops trying candidates once the
 next rollout might not end within it (the round's longest rollout so far as its cost; the
 planner's own joint action is always tried): a planner for real time, whose choices then
@@ -65,12 +78,13 @@ class TaskLookahead:
     that proposes the candidates (see the module doc): ``guide(env, seed)`` makes it, and it
     answers ``scores(observations)`` (one row per crane, its actions' scores) besides
     ``(observations) -> joint action``, as a trained model's policy
-    (``multicrane.training.model_policy``) does. ``budget``: seconds per round (see the
-    module doc)."""
+    (``multicrane.training.model_policy``) does. ``budget``: seconds per round; ``cranes``:
+    how many idle cranes search, one after the other; ``planner``: with another ``base``,
+    the prioritized planner finishes each copy too (all three: see the module doc)."""
 
     def __init__(self, env, seed=None, candidates: int = 4, max_searches: int = 8,
-                 rank: str = "list", base=None, guide=None, budget: float | None = None
-                 ):  # fmt: skip
+                 rank: str = "list", base=None, guide=None, budget: float | None = None,
+                 cranes: int = 1, planner: bool = False):  # fmt: skip
         self.env, _ = _book(env)
         if self.env.sim.schedule is not None or self.env.observation_layout.events is not None:
             raise ValueError(
@@ -81,11 +95,20 @@ class TaskLookahead:
             raise ValueError(f"candidates={candidates!r}: must be an integer >= 0")
         if budget is not None and not (isinstance(budget, int | float) and budget > 0):
             raise ValueError(f"budget={budget!r}: seconds per round, a number > 0")
+        if not isinstance(cranes, int) or isinstance(cranes, bool) or cranes < 1:
+            raise ValueError(f"cranes={cranes!r}: how many idle cranes search, an integer >= 1")
         self.seed = seed
         self.candidates = candidates
         self.budget = budget
+        self.cranes = cranes
+        self._longest = 0.0  # the round's longest rollout so far (the budget's cost estimate)
         self.options = {"max_searches": max_searches, "rank": rank}
-        self.base = base or (lambda env: TaskPrioritized(env, **self.options))
+        self.planner = lambda env: TaskPrioritized(env, **self.options)
+        self.base = base or self.planner
+        if not isinstance(planner, bool):
+            raise ValueError(f"planner={planner!r}: true or false")
+        # Rollouts by the base and by the planner too (a second base heuristic; module doc).
+        self.bases = (self.base, self.planner) if planner and base else (self.base,)
         self.guide = None if guide is None else guide(self.env, seed)
         if self.guide is not None and not hasattr(self.guide, "scores"):
             raise ValueError(f"guide={guide!r}: a trained task-level model's policy (a run "
@@ -95,37 +118,46 @@ class TaskLookahead:
         # makespan its copy finished at}), None when the round compared nothing; imitation
         # with soft targets reads them (multicrane.training.soft_targets).
         self.values: tuple[str, dict[int, int]] | None = None
+        self.expected: int | None = None  # the last round's pick: the makespan of its copy
 
     def __call__(self, observations) -> dict:
         began = time.perf_counter()
         env = self.env
         base = self.base(env)(observations)
+        self._guide_scores = None
         joints = self._candidates(base, observations)
-        self.values = None
+        self.values = self.expected = None
         if len(joints) == 1:
             return base
-        scores = self._scores(joints, began)
-        agent = env.possible_agents[env.mode.task_book().idle_cranes()[0]]
+        self._longest = 0.0
+        scores = self._scores(joints, began, base_first=True)
+        idle = env.mode.task_book().idle_cranes()
+        agent = env.possible_agents[idle[0]]
         values: dict[int, int] = {}
         for joint, score in zip(joints, scores, strict=True):  # a crane action's best copy
             values[joint[agent]] = min(score, values.get(joint[agent], score))
         self.values = (agent, values)
-        return joints[int(np.argmin(scores))]  # argmin: the first of equals, the planner's
+        best = int(np.argmin(scores))  # argmin: the first of equals, the planner's
+        joint, score = joints[best], scores[best]
+        for i, crane in enumerate(idle[1 : self.cranes], 1):
+            joint, score = self._improve(joint, score, crane, idle[:i], observations, began)
+        self.expected = score
+        return joint
 
-    def _scores(self, joints: list[dict], began: float) -> list[int]:
+    def _scores(self, joints: list[dict], began: float, base_first: bool = False) -> list[int]:
         """Each joint action's finishing makespan on a copy; with a budget, those that the
-        time left might not cover are not played (``UNFINISHED``)."""
+        time left might not cover are not played (``UNFINISHED``); ``base_first``: the first
+        (the base's own) is always played."""
         if self.budget is None:
             return [self._finish(joint) for joint in joints]
         scores: list[int] = []
-        longest = 0.0  # the longest rollout of the round so far
         for k, joint in enumerate(joints):
             start = time.perf_counter()
-            if k and start - began + longest > self.budget:  # the base's own: always
+            if (k or not base_first) and start - began + self._longest > self.budget:
                 scores.append(UNFINISHED)
                 continue
             scores.append(self._finish(joint))
-            longest = max(longest, time.perf_counter() - start)
+            self._longest = max(self._longest, time.perf_counter() - start)
         return scores
 
     def _candidates(self, base: dict, observations) -> list[dict]:
@@ -137,27 +169,69 @@ class TaskLookahead:
         idle = book.idle_cranes()
         if not idle or not book.carrier.may_start(env.sim.state.step_count):
             return [base]
-        crane = idle[0]
-        agent = env.possible_agents[crane]
-        allowed = np.flatnonzero(book.allowed()[crane])
+        agent = env.possible_agents[idle[0]]
         out = [base]
-        if self.guide is None:
-            order = allowed[np.argsort(book.static_len[crane][allowed], kind="stable")]
-        else:
-            scores = self.guide.scores(observations)[list(observations).index(agent)]
-            order = allowed[np.argsort(-scores[1 + allowed], kind="stable")]
+        if self.guide is not None:
             own = self.guide(observations)
             if own != base:
                 out.append(own)
-        tasks = book.tasks
-        for action in [1 + int(p) for p in order[: self.candidates]] + [0]:
-            clash = tasks.conflicts(action - 1) if action else np.zeros(len(tasks), dtype=bool)
-            # Another crane the planner gave a task of the same component or target waits.
-            joint = {a: (0 if a != agent and x and clash[x - 1] else x) for a, x in base.items()}
-            joint[agent] = action
+        if len(self.bases) > 1:  # each base heuristic's own joint action
+            own = self.planner(env)(observations)
+            if own not in out:
+                out.append(own)
+        for action in self._order(idle[0], observations):
+            joint = self._with(base, agent, action, fixed=())
             if joint not in out:
                 out.append(joint)
         return out
+
+    def _order(self, crane: int, observations) -> list[int]:
+        """The crane's actions to try: its first ``candidates`` allowed tasks (``1 + p``) in
+        the guide's order or nearest first, then waiting (``0``)."""
+        book = self.env.mode.task_book()
+        allowed = np.flatnonzero(book.allowed()[crane])
+        if self.guide is None:
+            order = allowed[np.argsort(book.static_len[crane][allowed], kind="stable")]
+        else:
+            if self._guide_scores is None:  # once a round
+                self._guide_scores = self.guide.scores(observations)
+            agent = self.env.possible_agents[crane]
+            scores = self._guide_scores[list(observations).index(agent)]
+            order = allowed[np.argsort(-scores[1 + allowed], kind="stable")]
+        return [1 + int(p) for p in order[: self.candidates]] + [0]
+
+    def _with(self, joint: dict, agent: str, action: int, fixed) -> dict | None:
+        """``joint`` with ``agent`` playing ``action``: another crane given a task of the same
+        component or target waits, unless it is one of the ``fixed`` agents (their choices
+        were made first): then None, the action is not open to ``agent``."""
+        tasks = self.env.mode.task_book().tasks
+        clash = tasks.conflicts(action - 1) if action else np.zeros(len(tasks), dtype=bool)
+        out = dict(joint)
+        for a, x in joint.items():
+            if a != agent and x and clash[x - 1]:
+                if a in fixed:
+                    return None
+                out[a] = 0
+        out[agent] = action
+        return out
+
+    def _improve(self, joint: dict, score: int, crane: int, before: list[int], observations,
+                 began: float) -> tuple[dict, int]:  # fmt: skip
+        """Agent-by-agent rollout (``cranes`` > 1): another idle crane's alternatives to the
+        best joint action so far, the cranes ``before`` it keeping their choices; the best
+        joint action and its makespan (the incumbent on ties)."""
+        agent = self.env.possible_agents[crane]
+        fixed = {self.env.possible_agents[k] for k in before}
+        alternatives: list[dict] = []
+        for action in self._order(crane, observations):
+            alt = self._with(joint, agent, action, fixed)
+            if alt is not None and alt != joint and alt not in alternatives:
+                alternatives.append(alt)
+        scores = self._scores(alternatives, began)
+        if scores and min(scores) < score:
+            best = int(np.argmin(scores))
+            return alternatives[best], scores[best]
+        return joint, score
 
     def _copy(self):
         """A deep copy of the environment that shares what no episode changes (the scenario,
@@ -175,11 +249,15 @@ class TaskLookahead:
         return copy.deepcopy(env, memo)
 
     def _finish(self, joint: dict) -> int:
-        """The makespan of playing ``joint`` on a copy, then the base policy."""
+        """The makespan of playing ``joint`` on a copy, then the base policy (with
+        ``planner``: the shorter of that and the planner's finish of another copy)."""
+        return min(self._finish_by(base, joint) for base in self.bases)
+
+    def _finish_by(self, base, joint: dict) -> int:
         self.rollouts += 1
         env = self._copy()
         first = env.possible_agents[0]
-        planner = self.base(env)
+        planner = base(env)
         observations = None
         while True:
             observations, _, terminations, truncations, _ = env.step(joint)

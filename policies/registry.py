@@ -17,8 +17,8 @@ directory or of its ``model.zip`` (needs the ``train`` extra; the model acts gre
 mode is the environment's: a PettingZoo ``ParallelEnv`` is the multi-agent mode, anything
 else the single-agent benchmark mode.
 ``options`` go to the policy's constructor (e.g. ``rank="nearest"`` for ``prioritized``,
-``patience`` for ``greedy``, ``candidates``, ``budget``, ``guide`` and ``base`` (run
-directories) for ``lookahead``, ``deterministic`` and, in the multi-agent mode,
+``patience`` for ``greedy``, ``candidates``, ``budget``, ``cranes``, ``guide`` and ``base``
+(run directories) for ``lookahead``, ``deterministic`` and, in the multi-agent mode,
 ``break_waits`` for a trained model: ``multicrane.training.model_policy``). A name may
 carry them itself, as the command line gives them: ``NAME:KEY=VALUE,KEY=VALUE``
 (``lookahead:candidates=20``, ``prioritized:rank=nearest``; ``split_spec``); the whole text

@@ -3,6 +3,7 @@ the prioritized planner on the shipped sites measured here, and refused where it
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from conftest import play_legal
 
@@ -113,3 +114,105 @@ def test_a_budget_bounds_the_candidates_tried():
 def test_a_bad_budget_is_refused(budget):
     with pytest.raises(ValueError, match="budget"):
         TaskLookahead(task_env("e2s2", 2), budget=budget)
+
+
+def test_the_first_crane_alone_searches_by_default():
+    """``cranes=1`` is the default: the same episode, and the same rollouts, as before the
+    option; with more cranes the first crane's search is unchanged and later ones add to it."""
+    env = task_env("e3s2", 2)
+    default = TaskLookahead(env)
+    one = TaskLookahead(env, cranes=1)
+    a = run_episode(env, default, seed=2, record=True)
+    b = run_episode(env, one, seed=2, record=True)
+    assert a["actions"] == b["actions"] and default.rollouts == one.rollouts
+
+
+def test_each_idle_crane_searching_never_expects_longer_and_shortens_some_rounds():
+    """Agent-by-agent rollout over the (sequentially consistent) prioritized planner: every
+    round's pick finishes its copy no later than the first crane's best (the incumbent on
+    ties), and replaying it gives that makespan again; so the expected finish never rises
+    from round to round, and the episode ends no later than any round expected. Each
+    episode is legal and the real site untouched by the copies; later cranes' searches
+    shorten some rounds."""
+    improved = 0
+    for name, n, seed in [("e3s2", 3, 1), ("precast-house", 3, 0), ("e4s2", 3, 0)]:
+        env = task_env(name, n)
+        obs, _ = env.reset(seed=seed)
+        look = TaskLookahead(env, candidates=2, cranes=n)
+        expected = []
+        while True:
+            before = (env.sim.state.step_count, env.sim.state.n_assembled)
+            joint = look(obs)
+            assert (env.sim.state.step_count, env.sim.state.n_assembled) == before
+            if look.values is not None:
+                first = min(look.values[1].values())
+                assert look.expected <= first
+                assert look._finish(joint) == look.expected
+                improved += look.expected < first
+                expected.append(look.expected)
+            obs, _, terms, truncs, _ = env.step(joint)
+            if any(terms.values()) or any(truncs.values()):
+                break
+        assert all(terms.values()), (name, n, seed)
+        assert expected == sorted(expected, reverse=True), (name, n, seed)
+        assert env.sim.state.step_count <= expected[-1], (name, n, seed)
+    assert improved > 0
+
+
+def test_a_later_crane_keeps_the_earlier_cranes_choices():
+    """A later crane's alternative that takes the component or target an earlier crane chose
+    is not tried; one that takes a later crane's makes that crane wait."""
+    env = task_env("e3s2", 3)
+    obs, _ = env.reset(seed=0)
+    look = TaskLookahead(env, cranes=3)
+    book = env.mode.task_book()
+    a0, a1, a2 = env.possible_agents
+    p = int(np.flatnonzero(book.allowed()[0])[0])
+    clashing = np.flatnonzero(book.tasks.conflicts(p) & book.allowed()[1])
+    joint = {a0: 1 + p, a1: 0, a2: 1 + int(clashing[0])}
+    assert look._with(joint, a1, 1 + int(clashing[0]), fixed={a0}) is None
+    moved = look._with(joint, a1, 1 + int(clashing[0]), fixed=set())
+    assert moved == {a0: 0, a1: 1 + int(clashing[0]), a2: 0}
+    kept = look._with(joint, a1, 0, fixed={a0})
+    assert kept == {a0: 1 + p, a1: 0, a2: 1 + int(clashing[0])}
+
+
+@pytest.mark.parametrize("cranes", [0, -1, 1.5, "2", True])
+def test_bad_cranes_are_refused(cranes):
+    with pytest.raises(ValueError, match="cranes"):
+        TaskLookahead(task_env("e2s2", 2), cranes=cranes)
+
+
+@pytest.mark.parametrize(("name", "n", "seed"), [("e3s2", 2, 0), ("e4s2", 3, 1)])
+def test_two_base_heuristics_finish_no_later_than_either(name, n, seed):
+    """``planner=True`` over another base (here the greedy rule): each joint action's value
+    is the shorter of the two finishes, the planner's own joint action is a candidate, and
+    the episode ends no later than either base heuristic's own episode (rollout with several
+    heuristics improves on each), its expected finish never rising."""
+    from policies.task_planners import TaskGreedy
+
+    env = task_env(name, n)
+    alone = {label: run_episode(env, policies.make(label, env, seed=seed), seed=seed)["steps"]
+             for label in ("greedy", "prioritized")}  # fmt: skip
+    look = TaskLookahead(env, candidates=2, base=TaskGreedy, planner=True)
+    assert len(look.bases) == 2
+    obs, _ = env.reset(seed=seed)
+    expected = []
+    while True:
+        joint = look(obs)
+        if look.expected is not None:
+            by = [look._finish_by(base, joint) for base in look.bases]
+            assert look.expected == min(by)
+            expected.append(look.expected)
+        obs, _, terms, truncs, _ = env.step(joint)
+        if any(terms.values()) or any(truncs.values()):
+            break
+    assert all(terms.values())
+    assert expected == sorted(expected, reverse=True)
+    assert env.sim.state.step_count <= min(alone.values())
+
+
+def test_the_planner_option_needs_another_base_and_a_bool():
+    assert len(TaskLookahead(task_env("e2s2", 2), planner=True).bases) == 1  # its own base
+    with pytest.raises(ValueError, match="planner"):
+        TaskLookahead(task_env("e2s2", 2), planner="yes")
