@@ -110,6 +110,7 @@ class TaskLookahead:
         # Rollouts by the base and by the planner too (a second base heuristic; module doc).
         self.bases = (self.base, self.planner) if planner and base else (self.base,)
         self.guide = None if guide is None else guide(self.env, seed)
+        self._guide_scores = None  # the guide's scores of the round's observations, once
         if self.guide is not None and not hasattr(self.guide, "scores"):
             raise ValueError(f"guide={guide!r}: a trained task-level model's policy (a run "
                              "directory), which scores every crane's actions")  # fmt: skip
@@ -193,7 +194,7 @@ class TaskLookahead:
         if self.guide is None:
             order = allowed[np.argsort(book.static_len[crane][allowed], kind="stable")]
         else:
-            if self._guide_scores is None:  # once a round
+            if self._guide_scores is None:
                 self._guide_scores = self.guide.scores(observations)
             agent = self.env.possible_agents[crane]
             scores = self._guide_scores[list(observations).index(agent)]
