@@ -103,12 +103,12 @@ class TaskLookahead:
         self.cranes = cranes
         self._longest = 0.0  # the round's longest rollout so far (the budget's cost estimate)
         self.options = {"max_searches": max_searches, "rank": rank}
-        self.planner = lambda env: TaskPrioritized(env, **self.options)
-        self.base = base or self.planner
+        self.prioritized = lambda env: TaskPrioritized(env, **self.options)
+        self.base = base or self.prioritized
         if not isinstance(planner, bool):
             raise ValueError(f"planner={planner!r}: true or false")
         # Rollouts by the base and by the planner too (a second base heuristic; module doc).
-        self.bases = (self.base, self.planner) if planner and base else (self.base,)
+        self.bases = (self.base, self.prioritized) if planner and base else (self.base,)
         self.guide = None if guide is None else guide(self.env, seed)
         self._guide_scores = None  # the guide's scores of the round's observations, once
         if self.guide is not None and not hasattr(self.guide, "scores"):
@@ -177,7 +177,7 @@ class TaskLookahead:
             if own != base:
                 out.append(own)
         if len(self.bases) > 1:  # each base heuristic's own joint action
-            own = self.planner(env)(observations)
+            own = self.prioritized(env)(observations)
             if own not in out:
                 out.append(own)
         for action in self._order(idle[0], observations):
@@ -255,10 +255,11 @@ class TaskLookahead:
         return min(self._finish_by(base, joint) for base in self.bases)
 
     def _finish_by(self, base, joint: dict) -> int:
+        """The makespan of playing ``joint`` on a copy, then ``base`` (one rollout)."""
         self.rollouts += 1
         env = self._copy()
         first = env.possible_agents[0]
-        planner = base(env)
+        policy = base(env)
         observations = None
         while True:
             observations, _, terminations, truncations, _ = env.step(joint)
@@ -266,7 +267,7 @@ class TaskLookahead:
                 return env.sim.state.step_count
             if truncations[first]:
                 return UNFINISHED
-            joint = planner(observations)
+            joint = policy(observations)
 
 
 class LookaheadTeacher:
