@@ -1,7 +1,7 @@
 """Plot training runs' learning curves (makespan of the evaluation episodes) as a PNG.
 
     python tools/marl_curve.py RUN_DIR [RUN_DIR ...] OUT.png [--line LABEL=VALUE ...]
-        [--against steps|time] [--label LABEL] [--title TITLE]
+        [--against steps|time] [--label LABEL] [--title TITLE] [--reach MAKESPAN]
 
 Reads each RUN_DIR's evaluations during training (``result.json``, or for a run still going
 its checkpoint's progress) and draws the mean makespan of the greedy evaluation episodes
@@ -31,6 +31,7 @@ def main() -> int:
     p.add_argument("--against", choices=["steps", "time"], default="steps")
     p.add_argument("--label", default="set policy (greedy evaluation)")
     p.add_argument("--title", default=None)
+    p.add_argument("--reach", type=float, default=None, metavar="MAKESPAN")
     args = p.parse_args()
     *runs, out = args.paths
     if not runs:
@@ -44,7 +45,20 @@ def main() -> int:
     write_figure([panel], out)
     points = min(len(run) for run in curves[args.label])
     print(f"wrote {out} ({len(runs)} run(s), {points} points)")
+    if args.reach is not None:
+        for run_dir, run in zip(runs, curves[args.label], strict=True):
+            print(f"{run_dir}: {reached(run, args.reach)}")
     return 0
+
+
+def reached(run: list[dict], makespan: float) -> str:
+    """When the curve first finished every episode in at most ``makespan`` steps on average."""
+    for point in run:
+        if point.get("success_rate", 1.0) >= 1.0 and point["steps_mean"] <= makespan:
+            seconds = point.get("seconds")
+            after = f", {seconds:.0f} s" if seconds is not None else ""
+            return f"{makespan} reached at {point['step']:,} decisions{after}"
+    return f"{makespan} not reached in {run[-1]['step']:,} decisions"
 
 
 if __name__ == "__main__":

@@ -145,6 +145,9 @@ def _imitation_options(p) -> None:
                    help="start from the policy weights of this finished run (same algorithm "
                    "and network); with --imitate, skip the first imitation and run only "
                    "--dagger / --expert-iteration rounds on it (docs/training.md)")
+    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+                   help="stop training after this much wall time (evaluations included) and "
+                   "finish the run as if --steps were reached")
     p.add_argument("--planner-hint", action="store_true",
                    help="set policy: each task row also shows whether the prioritized planner "
                    "would start it for the crane now (the policy learns where to depart from it)")
@@ -223,6 +226,7 @@ def build_config(args: argparse.Namespace):
         clone_weight=args.clone_weight,
         planner_hint=args.planner_hint,
         init_from=args.init_from,
+        time_limit=args.time_limit,
     )
 
 

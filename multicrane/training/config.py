@@ -87,7 +87,9 @@ class TrainConfig:
     ``init_from``: a finished run directory whose policy weights the fresh run starts from
     (``multicrane.training.warm_start``; same algorithm, policy kind and network); with
     ``imitate`` it skips the first imitation and runs only the rounds (``dagger``,
-    ``expert_iteration``) on that policy, e.g. expert iteration after PPO.
+    ``expert_iteration``) on that policy, e.g. expert iteration after PPO. ``time_limit``:
+    seconds of training wall time (curve evaluations included) after which the run stops at
+    the next update boundary and finishes as if its budget were spent (None: the budget only).
     """
 
     scenario: str = "E2S2"
@@ -129,6 +131,7 @@ class TrainConfig:
     clone_weight: float = 0.0
     planner_hint: bool = False
     init_from: str | None = None
+    time_limit: float | None = None
 
     def __post_init__(self) -> None:
         if self.paper:
@@ -175,6 +178,8 @@ class TrainConfig:
             raise ConfigError(
                 f"shaping_gamma={self.shaping_gamma!r}: must be a number in [0, 1] or None"
             )
+        if self.time_limit is not None and (not _is_real(self.time_limit) or self.time_limit <= 0):
+            raise ConfigError(f"time_limit={self.time_limit!r}: must be seconds > 0 or None")
         self._check_set_policy()
         self._check_imitation()
         check_clone_weight(self.clone_weight, self.imitate, self.imitate_demos)

@@ -50,7 +50,7 @@ from multicrane.training.set_training import make_set_model, set_hyperparameters
 from multicrane.training.warm_start import warm_start
 
 RESULT = "result.json"
-KEPT_PROGRESS = ("init_from", "imitation", "best", "clone")  # into result.json
+KEPT_PROGRESS = ("init_from", "imitation", "best", "clone", "time_up")  # into result.json
 BEST = "best.zip"  # keep_best: the model of the best validation point so far
 PACKAGES = (
     "multicrane",
@@ -141,11 +141,13 @@ class _RunMonitor(BaseCallback):
             run.checkpoint()
         if stop:
             self.stopping, self.stopped_at = True, steps
+        elif run.cfg.time_limit is not None and run.elapsed() >= run.cfg.time_limit:
+            run.progress["time_up"] = steps  # ``_on_step`` ends learn; the run finishes
 
     def _on_step(self) -> bool:
         if self.bar is not None:
             self.bar.update(self.model.num_timesteps - self.bar.n)
-        return not self.stopping
+        return not (self.stopping or "time_up" in self.run.progress)
 
     def _on_training_end(self) -> None:
         if self.bar is not None:
