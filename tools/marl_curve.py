@@ -2,6 +2,7 @@
 
     python tools/marl_curve.py RUN_DIR [RUN_DIR ...] OUT.png [--line LABEL=VALUE ...]
         [--against steps|time] [--label LABEL] [--title TITLE] [--reach MAKESPAN]
+        [--ymax MAKESPAN]
 
 Reads each RUN_DIR's evaluations during training (``result.json``, or for a run still going
 its checkpoint's progress) and draws the mean makespan of the greedy evaluation episodes
@@ -10,7 +11,11 @@ reference lines (e.g. the prioritized planner and the lower bound). With several
 (training seeds of one setting, evaluated at the same points) each is a thin line and their
 mean a thick one, with the Student-t 95 % interval over seeds as a band. A point where a run
 did not finish every evaluation episode is left out of the mean and drawn as a red cross at
-the top of the plot. The drawing is ``multicrane.reports.comparison_plot``'s (the one
+the top of the plot. ``--reach MAKESPAN`` also prints, run by run, the first point at or
+below that makespan (e.g. a planner's on the same evaluation episodes): its crane decisions
+and training wall time, "time to planner". ``--ymax`` cuts the y axis there (the points of
+a run that collapsed go off the top). The drawing is
+``multicrane.reports.comparison_plot``'s (the one
 ``multicrane evaluate --plot`` and ``multicrane seed-table --plot`` use). Needs matplotlib
 (the ``bench`` extra).
 """
@@ -32,6 +37,7 @@ def main() -> int:
     p.add_argument("--label", default="set policy (greedy evaluation)")
     p.add_argument("--title", default=None)
     p.add_argument("--reach", type=float, default=None, metavar="MAKESPAN")
+    p.add_argument("--ymax", type=float, default=None, metavar="MAKESPAN")
     args = p.parse_args()
     *runs, out = args.paths
     if not runs:
@@ -39,6 +45,7 @@ def main() -> int:
     curves = run_curves({args.label: runs}, say=p.error)
     panel = curve_panel(curves, paper=False, against=args.against,
                         title=args.title or runs[0].name)  # fmt: skip
+    panel.ymax = args.ymax
     for item in args.line:
         label, _, value = item.partition("=")
         panel.lines.append((label, float(value)))

@@ -94,6 +94,7 @@ class CurvePanel:
     xlabel: str
     ylabel: str
     lines: list[tuple[str, float]] = field(default_factory=list)  # reference lines
+    ymax: float | None = None  # the y axis's top, its bottom the lowest point (None: automatic)
 
 
 def require_matplotlib():
@@ -246,6 +247,8 @@ def _draw_curves(ax, panel: CurvePanel, colours: dict[str, str]) -> None:
     ax.set_xlabel(panel.xlabel)
     ax.set_ylabel(panel.ylabel)
     ax.set_title(panel.title, fontsize=10)
+    if panel.ymax is not None:  # a band wider than the points (a run that collapsed) is cut
+        ax.set_ylim(min(tops, default=0.0) * 0.97, panel.ymax)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
 

@@ -193,6 +193,24 @@ def test_figure_of_strips_and_curves_is_a_png(tmp_path):
         write_figure([], tmp_path / "none.png")
 
 
+def test_ymax_cuts_the_axis_at_the_lowest_point_and_the_given_top():
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    from multicrane.reports.comparison_plot import _draw_curves
+
+    collapsed = [[(0, 160), (1, 130), (2, 500)], [(0, 150), (1, 128), (2, 127)]]
+    for ymax, expected in ((175.0, (127 * 0.97, 175.0)), (None, None)):
+        ax = Figure().add_subplot()
+        _draw_curves(ax, CurvePanel("c", [Curves("ppo", collapsed)], "s", "makespan",
+                                    ymax=ymax), {"ppo": "C0"})  # fmt: skip
+        low, high = ax.get_ylim()
+        if expected is None:  # automatic: the whole band shows, the collapsed point too
+            assert low < 127 and high > 500
+        else:
+            assert (low, high) == pytest.approx(expected)
+
+
 def test_without_matplotlib_the_command_names_the_extra_at_once(tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib fails
     argv = ["uncertainty", "--scenarios", "e2s2:2", "--levels", "none", "--seeds", "1",
