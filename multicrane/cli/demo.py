@@ -12,17 +12,16 @@ DESCRIPTION = """The main job (bash tools/demo.sh runs it): train one policy sha
 crane of a site, compare it with the planners and the proven lower bound, and save a replay.
 Needs the 'train' and 'replay' extras.
 
-    multicrane demo                                   # hall-4c, 4 cranes, ~11 minutes
+    multicrane demo                                   # hall-4c, 4 cranes, ~15 minutes
     multicrane demo --scenario frame2-3c
     multicrane demo --decisions motion --scenario e2s2 --cranes 2 --steps 1000000
 
 1. multicrane train: one policy shared by every crane (resumes or reuses a finished run in
    --out). Task decisions (the default): the set policy (docs/training.md), which reads the
-   site's components and cranes as sets, with the prioritized planner's proposal in every
-   task row (--planner-hint); it first imitates the look-ahead planner (--imitate-episodes
-   of its episodes), then MaskablePPO trains it on the undiscounted makespan reward for
-   --steps crane decisions, keeping the best point on validation episodes. --decisions
-   motion: the MLP deciding every move, MaskablePPO from scratch.
+   site's components and cranes as sets, from random weights, with no demonstrations:
+   MaskablePPO on the undiscounted makespan reward for --steps crane decisions or --minutes
+   of training, whichever ends first, keeping the best point on validation episodes.
+   --decisions motion: the MLP deciding every move, MaskablePPO from scratch.
 2. multicrane evaluate: the trained policy beside the prioritized and look-ahead planners,
    greedy and random cranes, on the same episodes; then multicrane seed-table: the same as
    one table, with the proven makespan lower bound of every episode (CP-SAT, --bound-time
@@ -40,9 +39,9 @@ def register(sub) -> None:
     p.add_argument("--decisions", default="task", choices=tuple(DECISION_MODES),
                    help="task: the set policy picks tasks; motion: an MLP picks moves")  # fmt: skip
     p.add_argument("--steps", type=int, default=None,
-                   help="crane decisions of PPO (default: 400,000 task, 300,000 motion)")
-    p.add_argument("--imitate-episodes", type=int, default=128,
-                   help="task decisions: the look-ahead planner's episodes imitated first")
+                   help="crane decisions of PPO (default: 1,200,000 task, 300,000 motion)")
+    p.add_argument("--minutes", type=float, default=12.0,
+                   help="task decisions: training stops after this wall time (default 12)")
     p.add_argument("--algo", default="maskable_ppo", choices=("ppo", "maskable_ppo"))
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes")
@@ -57,20 +56,19 @@ def run(args: argparse.Namespace) -> int:
 
     task = decision_mode(args.decisions).task_level
     kind = "set" if task else args.algo
-    steps = args.steps or (400_000 if task else 300_000)
+    steps = args.steps or (1_200_000 if task else 300_000)
     run_dir = args.out / f"{args.scenario}-{args.cranes}c-{kind}-s{args.seed}"
     where = ["--scenario", args.scenario, "--cranes", str(args.cranes)]
     level = ["--decisions", args.decisions]
     what = "the set policy, task decisions" if task else f"{args.algo}, motion decisions"
     print(f"== 1. train {what} (one policy shared by {args.cranes} cranes) on {args.scenario}")
-    recipe = ["--policy", "set", "--planner-hint", "--imitate", "lookahead",
-              "--imitate-episodes", str(args.imitate_episodes), "--imitate-epochs", "30",
-              "--reward", "makespan", "--shaping", "0", "--set", "learning_rate=1e-3",
-              "--keep-best"]  # fmt: skip
+    recipe = ["--policy", "set", "--reward", "makespan", "--shaping", "0", "--set",
+              "learning_rate=1e-3", "--keep-best", "--time-limit", str(60 * args.minutes)]
     code = main(
         ["train", *where, *level, *(recipe if task else []), "--algo", args.algo,
          "--steps", str(steps), "--seed", str(args.seed),
-         "--eval-every", str(max(steps // 5 if task else steps // 10, 1)), "--out", str(run_dir)]
+         "--eval-every", str(max(min(steps // 5, 40_960) if task else steps // 10, 1)),
+         "--out", str(run_dir)]
     )  # fmt: skip
     if code:
         return code

@@ -163,7 +163,7 @@ def test_set_evaluation_in_workers_plays_the_same_episodes(tmp_path, capsys):
 def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
     pytest.importorskip("rerun")
     argv = ["demo", "--scenario", "e1s1", "--cranes", "2", "--decisions", decisions, "--steps",
-            "512", "--imitate-episodes", "4", "--episodes", "2", "--bound-time", "2",
+            "512", "--episodes", "2", "--bound-time", "2",
             "--out", str(tmp_path)]  # fmt: skip
     assert main(argv) == 0
     out = capsys.readouterr().out
@@ -174,10 +174,12 @@ def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
     policies = [r["policy"] for r in json.loads((run_dir / "evaluation.json").read_text())]
     planners = ["prioritized", "lookahead"] if decisions == "task" else ["prioritized"]
     assert policies[1:] == [*planners, "greedy", "random"]
-    if decisions == "task":  # imitated the look-ahead planner first, with the planner's hint
-        assert json.loads((run_dir / "result.json").read_text())["imitation"]["episodes"] == 4
-        config = json.loads((run_dir / "config.json").read_text())
-        assert config["planner_hint"] and config["hyperparams"] == {"learning_rate": 1e-3}
+    if decisions == "task":  # from random weights, no demonstrations, no hint, time-limited
+        result = json.loads((run_dir / "result.json").read_text())
+        assert "imitation" not in result and "init_from" not in result
+        config = result["config"]
+        assert not config["planner_hint"] and config["hyperparams"] == {"learning_rate": 1e-3}
+        assert config["time_limit"] == 720.0 and config["keep_best"]
     assert "gap to bound" in (run_dir / "evaluation.md").read_text()
     assert "replay:" in out
     # Again: the finished training is reused, not repeated.
