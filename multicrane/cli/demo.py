@@ -19,8 +19,8 @@ Needs the 'train' and 'replay' extras.
 1. multicrane train: one policy shared by every crane (resumes or reuses a finished run in
    --out). Task decisions (the default): the set policy (docs/training.md), which reads the
    site's components and cranes as sets, from random weights, with no demonstrations:
-   MaskablePPO on the undiscounted makespan reward for --steps crane decisions or --minutes
-   of training, whichever ends first, keeping the best point on validation episodes.
+   MaskablePPO on the undiscounted makespan reward for --steps crane decisions (at most
+   --minutes of training), keeping the best point on validation episodes.
    --decisions motion: the MLP deciding every move, MaskablePPO from scratch.
 2. multicrane evaluate: the trained policy beside the prioritized and look-ahead planners,
    greedy and random cranes, on the same episodes; then multicrane seed-table: the same as
@@ -39,9 +39,10 @@ def register(sub) -> None:
     p.add_argument("--decisions", default="task", choices=tuple(DECISION_MODES),
                    help="task: the set policy picks tasks; motion: an MLP picks moves")  # fmt: skip
     p.add_argument("--steps", type=int, default=None,
-                   help="crane decisions of PPO (default: 1,200,000 task, 300,000 motion)")
-    p.add_argument("--minutes", type=float, default=12.0,
-                   help="task decisions: training stops after this wall time (default 12)")
+                   help="crane decisions of PPO (default: 1,000,000 task, 300,000 motion)")
+    p.add_argument("--minutes", type=float, default=13.0,
+                   help="task decisions: training stops after this wall time if the steps "
+                   "take longer (default 13)")
     p.add_argument("--algo", default="maskable_ppo", choices=("ppo", "maskable_ppo"))
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes")
@@ -56,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
 
     task = decision_mode(args.decisions).task_level
     kind = "set" if task else args.algo
-    steps = args.steps or (1_200_000 if task else 300_000)
+    steps = args.steps or (1_000_000 if task else 300_000)
     run_dir = args.out / f"{args.scenario}-{args.cranes}c-{kind}-s{args.seed}"
     where = ["--scenario", args.scenario, "--cranes", str(args.cranes)]
     level = ["--decisions", args.decisions]

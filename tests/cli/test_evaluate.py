@@ -179,7 +179,7 @@ def test_demo_trains_evaluates_and_records(tmp_path, capsys, decisions, kind):
         assert "imitation" not in result and "init_from" not in result
         config = result["config"]
         assert not config["planner_hint"] and config["hyperparams"] == {"learning_rate": 1e-3}
-        assert config["time_limit"] == 720.0 and config["keep_best"]
+        assert config["time_limit"] == 780.0 and config["keep_best"]
     assert "gap to bound" in (run_dir / "evaluation.md").read_text()
     assert "replay:" in out
     # Again: the finished training is reused, not repeated.
