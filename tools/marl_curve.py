@@ -14,10 +14,9 @@ did not finish every evaluation episode is left out of the mean and drawn as a r
 the top of the plot. ``--reach MAKESPAN`` also prints, run by run, the first point at or
 below that makespan (e.g. a planner's on the same evaluation episodes): its crane decisions
 and training wall time, "time to planner". ``--ymax`` cuts the y axis there (the points of
-a run that collapsed go off the top). The drawing is
-``multicrane.reports.comparison_plot``'s (the one
-``multicrane evaluate --plot`` and ``multicrane seed-table --plot`` use). Needs matplotlib
-(the ``bench`` extra).
+a run that collapsed go off the top). The drawing is ``multicrane.reports.comparison_plot``'s
+(the one ``multicrane evaluate --plot`` and ``multicrane seed-table --plot`` use). Needs
+matplotlib (the ``bench`` extra).
 """
 
 from __future__ import annotations
