@@ -49,9 +49,13 @@ heuristics, Bertsekas, Tsitsiklis and Wu 1997: the search then improves on both)
 about 1.5 times the rollouts (the planner's are the cheaper).
 
 A time budget: with ``budget`` (seconds per round) the search stops trying candidates once the
-next rollout might not end within it (the round's longest rollout so far as its cost; the
-planner's own joint action is always tried): a planner for real time, whose choices then
-depend on the machine's speed (no budget, the default, is deterministic).
+next rollout might not end within it (the round's longest rollout so far as its cost), and a
+rollout still running at the round's deadline is stopped and counts as unfinished, the base's
+own included: the round then plays the best joint action whose copy finished, or the base's
+own. The deadline is ``RESERVE`` before the budget's end, which leaves room for the rollout
+step under way and the round's return, so a round keeps within its budget whatever the site,
+the base policy or the machine's load. A planner for real time, whose choices then depend on
+the machine's speed (no budget, the default, is deterministic).
 """
 
 from __future__ import annotations
@@ -63,7 +67,8 @@ import numpy as np
 
 from policies.task_planners import TaskPrioritized, _book
 
-UNFINISHED = 10**9  # the makespan of a copy that hits the step limit
+UNFINISHED = 10**9  # the makespan of a copy that hits the step limit (or the round's deadline)
+RESERVE = 0.02  # seconds: the rollouts stop this long before a budget ends (a tenth at most)
 
 
 class TaskLookahead:
@@ -102,6 +107,7 @@ class TaskLookahead:
         self.budget = budget
         self.cranes = cranes
         self._longest = 0.0  # the round's longest rollout so far (the budget's cost estimate)
+        self._deadline = float("inf")  # when the round's rollouts stop (with a budget)
         self.options = {"max_searches": max_searches, "rank": rank}
         self.prioritized = lambda env: TaskPrioritized(env, **self.options)
         self.base = base or self.prioritized
@@ -131,7 +137,9 @@ class TaskLookahead:
         if len(joints) == 1:
             return base
         self._longest = 0.0
-        scores = self._scores(joints, began, base_first=True)
+        if self.budget is not None:
+            self._deadline = began + self.budget - min(RESERVE, self.budget / 10)
+        scores = self._scores(joints, base_first=True)
         idle = env.mode.task_book().idle_cranes()
         agent = env.possible_agents[idle[0]]
         values: dict[int, int] = {}
@@ -141,20 +149,20 @@ class TaskLookahead:
         best = int(np.argmin(scores))  # argmin: the first of equals, the planner's
         joint, score = joints[best], scores[best]
         for i, crane in enumerate(idle[1 : self.cranes], 1):
-            joint, score = self._improve(joint, score, crane, idle[:i], observations, began)
+            joint, score = self._improve(joint, score, crane, idle[:i], observations)
         self.expected = score
         return joint
 
-    def _scores(self, joints: list[dict], began: float, base_first: bool = False) -> list[int]:
+    def _scores(self, joints: list[dict], base_first: bool = False) -> list[int]:
         """Each joint action's finishing makespan on a copy; with a budget, those that the
         time left might not cover are not played (``UNFINISHED``); ``base_first``: the first
-        (the base's own) is always played."""
+        (the base's own) is always started (a rollout stops at the deadline)."""
         if self.budget is None:
             return [self._finish(joint) for joint in joints]
         scores: list[int] = []
         for k, joint in enumerate(joints):
             start = time.perf_counter()
-            if (k or not base_first) and start - began + self._longest > self.budget:
+            if (k or not base_first) and start + self._longest > self._deadline:
                 scores.append(UNFINISHED)
                 continue
             scores.append(self._finish(joint))
@@ -216,8 +224,8 @@ class TaskLookahead:
         out[agent] = action
         return out
 
-    def _improve(self, joint: dict, score: int, crane: int, before: list[int], observations,
-                 began: float) -> tuple[dict, int]:  # fmt: skip
+    def _improve(self, joint: dict, score: int, crane: int, before: list[int],
+                 observations) -> tuple[dict, int]:  # fmt: skip
         """Agent-by-agent rollout (``cranes`` > 1): another idle crane's alternatives to the
         best joint action so far, the cranes ``before`` it keeping their choices; the best
         joint action and its makespan (the incumbent on ties)."""
@@ -228,7 +236,7 @@ class TaskLookahead:
             alt = self._with(joint, agent, action, fixed)
             if alt is not None and alt != joint and alt not in alternatives:
                 alternatives.append(alt)
-        scores = self._scores(alternatives, began)
+        scores = self._scores(alternatives)
         if scores and min(scores) < score:
             best = int(np.argmin(scores))
             return alternatives[best], scores[best]
@@ -255,17 +263,19 @@ class TaskLookahead:
         return min(self._finish_by(base, joint) for base in self.bases)
 
     def _finish_by(self, base, joint: dict) -> int:
-        """The makespan of playing ``joint`` on a copy, then ``base`` (one rollout)."""
+        """The makespan of playing ``joint`` on a copy, then ``base`` (one rollout);
+        ``UNFINISHED`` if it hits the step limit or runs past the round's deadline."""
         self.rollouts += 1
         env = self._copy()
         first = env.possible_agents[0]
         policy = base(env)
+        deadline, clock = self._deadline, time.perf_counter
         observations = None
         while True:
             observations, _, terminations, truncations, _ = env.step(joint)
             if terminations[first]:
                 return env.sim.state.step_count
-            if truncations[first]:
+            if truncations[first] or clock() > deadline:
                 return UNFINISHED
             joint = policy(observations)
 

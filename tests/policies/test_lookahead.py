@@ -3,14 +3,17 @@ the prioritized planner on the shipped sites measured here, and refused where it
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from conftest import play_legal
 
 import policies
 from multicrane.envs.crane_env import MultiCraneEnv
-from multicrane.episodes.rollout import run_episode
+from multicrane.episodes.rollout import Stopwatch, run_episode
 from policies.lookahead import TaskLookahead
+from policies.task_planners import TaskPrioritized
 
 # (scenario, cranes): the prioritized planner's and the look-ahead's makespans from reset(0)
 # (measured; the look-ahead is not guaranteed shorter in general, see the module doc).
@@ -108,6 +111,30 @@ def test_a_budget_bounds_the_candidates_tried():
     assert none_tried["actions"] == planner["actions"]
     # at most one rollout a round (the planner's joint action), against several without
     assert 0 < tight.rollouts <= none_tried["decision_rounds"]
+
+
+def test_a_budget_bounds_each_round_even_when_the_bases_own_rollout_is_slower():
+    """A base whose every call sleeps 2 ms finishes a copy in far more than the 30 ms budget:
+    the rollouts stop at the deadline, so each round ends within the budget (plus the step
+    under way), and the round plays the base's own joint action."""
+    env = task_env("e3s2", 2)
+
+    def slow_base(copy_env):
+        planner = TaskPrioritized(copy_env)
+
+        def policy(observations):
+            time.sleep(0.002)
+            return planner(observations)
+
+        return policy
+
+    look = TaskLookahead(env, base=slow_base, budget=0.03)
+    watch = Stopwatch()
+    result = run_episode(env, watch.timing(look), seed=1, record=True)
+    planner = run_episode(env, TaskPrioritized(env), seed=1, record=True)
+    assert result["actions"] == planner["actions"]  # no copy finished: the base's own
+    assert len(watch.seconds) == result["decision_rounds"] > 5
+    assert max(watch.seconds) < 0.03 + 0.015, max(watch.seconds)
 
 
 @pytest.mark.parametrize("budget", [0, -1.0, "1", float("nan")])
