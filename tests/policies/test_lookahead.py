@@ -3,6 +3,7 @@ the prioritized planner on the shipped sites measured here, and refused where it
 
 from __future__ import annotations
 
+import gc
 import time
 
 import numpy as np
@@ -135,6 +136,36 @@ def test_a_budget_bounds_each_round_even_when_the_bases_own_rollout_is_slower():
     assert result["actions"] == planner["actions"]  # no copy finished: the base's own
     assert len(watch.seconds) == result["decision_rounds"] > 5
     assert max(watch.seconds) < 0.03 + 0.015, max(watch.seconds)
+
+
+@pytest.mark.parametrize("budget", [None, 10.0])
+def test_the_collector_is_paused_in_a_budgeted_rounds_rollouts_only(budget):
+    env = task_env("e3s2", 2)
+    seen = []
+
+    def probing_base(copy_env):
+        planner = TaskPrioritized(copy_env)
+
+        def policy(observations):
+            if copy_env is not env:  # in a rollout, not the round's own call
+                seen.append(gc.isenabled())
+            return planner(observations)
+
+        return policy
+
+    look = TaskLookahead(env, base=probing_base, budget=budget)
+    obs, _ = env.reset(seed=2)
+    for _ in range(3):
+        obs, *_ = env.step(look(obs))
+        assert gc.isenabled()  # back on between rounds
+    assert look.rollouts > 0 and seen
+    assert not any(seen) if budget else all(seen)
+    gc.disable()
+    try:  # a collector the caller turned off stays off
+        look(obs)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
 
 
 @pytest.mark.parametrize("budget", [0, -1.0, "1", float("nan")])
