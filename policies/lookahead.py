@@ -57,8 +57,8 @@ step under way and the round's return, so a round keeps within its budget whatev
 the base policy or the machine's load. Python's cyclic garbage collector is paused while a
 budgeted round's rollouts run: a full collection in a process that holds trained models
 takes 0.1-0.2 s, which landed past the deadline; the copies hold almost no reference
-cycles, so reference counting frees them and nothing piles up. A planner for real time, whose choices
-then depend on the machine's speed (no budget, the default, is deterministic).
+cycles, so reference counting frees them and nothing piles up. A planner for real time,
+whose choices then depend on the machine's speed (no budget, the default, is deterministic).
 """
 
 from __future__ import annotations
