@@ -115,16 +115,17 @@ def test_a_budget_bounds_the_candidates_tried():
 
 
 def test_a_budget_bounds_each_round_even_when_the_bases_own_rollout_is_slower():
-    """A base whose every call sleeps 2 ms finishes a copy in far more than the 30 ms budget:
-    the rollouts stop at the deadline, so each round ends within the budget (plus the step
-    under way), and the round plays the base's own joint action."""
+    """A base whose every call sleeps 10 ms finishes a copy in up to 99 ms, against a 30 ms
+    budget: the rollouts stop at the deadline (27 ms), so each round ends within the budget
+    plus the rollout step under way (a 10 ms call here; 33 ms measured), and the round plays
+    the base's own joint action."""
     env = task_env("e3s2", 2)
 
     def slow_base(copy_env):
         planner = TaskPrioritized(copy_env)
 
         def policy(observations):
-            time.sleep(0.002)
+            time.sleep(0.01)
             return planner(observations)
 
         return policy
@@ -135,7 +136,7 @@ def test_a_budget_bounds_each_round_even_when_the_bases_own_rollout_is_slower():
     planner = run_episode(env, TaskPrioritized(env), seed=1, record=True)
     assert result["actions"] == planner["actions"]  # no copy finished: the base's own
     assert len(watch.seconds) == result["decision_rounds"] > 5
-    assert max(watch.seconds) < 0.03 + 0.015, max(watch.seconds)
+    assert max(watch.seconds) < 0.03 + 0.02, max(watch.seconds)
 
 
 @pytest.mark.parametrize("budget", [None, 10.0])
