@@ -114,22 +114,29 @@ def test_a_budget_bounds_the_candidates_tried():
     assert 0 < tight.rollouts <= none_tried["decision_rounds"]
 
 
+def planner_calling(hook):
+    """A base for ``TaskLookahead``: the prioritized planner, calling ``hook(env)`` (the env
+    it plays: the round's own or a copy) before each of its calls."""
+
+    def base(env):
+        planner = TaskPrioritized(env)
+
+        def policy(observations):
+            hook(env)
+            return planner(observations)
+
+        return policy
+
+    return base
+
+
 def test_a_budget_bounds_each_round_even_when_the_bases_own_rollout_is_slower():
     """A base whose every call sleeps 10 ms finishes a copy in up to 99 ms, against a 30 ms
     budget: the rollouts stop at the deadline (27 ms), so each round ends within the budget
     plus the rollout step under way (a 10 ms call here; 33 ms measured), and the round plays
     the base's own joint action."""
     env = task_env("e3s2", 2)
-
-    def slow_base(copy_env):
-        planner = TaskPrioritized(copy_env)
-
-        def policy(observations):
-            time.sleep(0.01)
-            return planner(observations)
-
-        return policy
-
+    slow_base = planner_calling(lambda copy_env: time.sleep(0.01))
     look = TaskLookahead(env, base=slow_base, budget=0.03)
     watch = Stopwatch()
     result = run_episode(env, watch.timing(look), seed=1, record=True)
@@ -144,17 +151,11 @@ def test_the_collector_is_paused_in_a_budgeted_rounds_rollouts_only(budget):
     env = task_env("e3s2", 2)
     seen = []
 
-    def probing_base(copy_env):
-        planner = TaskPrioritized(copy_env)
+    def probe(copy_env):
+        if copy_env is not env:  # in a rollout, not the round's own call
+            seen.append(gc.isenabled())
 
-        def policy(observations):
-            if copy_env is not env:  # in a rollout, not the round's own call
-                seen.append(gc.isenabled())
-            return planner(observations)
-
-        return policy
-
-    look = TaskLookahead(env, base=probing_base, budget=budget)
+    look = TaskLookahead(env, base=planner_calling(probe), budget=budget)
     obs, _ = env.reset(seed=2)
     for _ in range(3):
         obs, *_ = env.step(look(obs))
