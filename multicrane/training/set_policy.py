@@ -91,6 +91,8 @@ class SetExtractor(BaseFeaturesExtractor):
         # wait forever (every round one simulated step, to the step limit).
         nn.init.constant_(self.wait_out[-1].bias, WAIT_BIAS)
 
+    summary_only = False  # True for a critic's own copy (SetPolicy, unshared): g and s only
+
     def split(self, obs: th.Tensor) -> dict[str, th.Tensor]:
         """The padded tables of a batch: counts (B, 3), components, cranes and tasks."""
         out = {"counts": obs[:, :HEADER]}
@@ -124,6 +126,8 @@ class SetExtractor(BaseFeaturesExtractor):
         g = (x * w).sum(1) / w.sum(1).clamp(min=1)
         s = (x[:, Cm:] * me.unsqueeze(-1)).sum(1)
         gs = th.cat([g, s], -1)
+        if self.summary_only:  # a critic's own extractor: no logits to compute
+            return th.cat([gs.new_zeros(B, 1 + Pm), g, s], -1)
 
         logits = th.full((B, Pm), BLOCKED, dtype=obs.dtype, device=obs.device)
         allowed = tasks[:, :, _ALLOWED] > 0.5
@@ -169,7 +173,9 @@ class _Heads(nn.Module):
 class SetPolicy(MaskableActorCriticPolicy):
     """MaskablePPO's actor-critic with ``SetExtractor``; the logits are the pointer head's.
 
-    ``policy_kwargs``: ``{"features_extractor_kwargs": {"limits": {...}, "dim": 64}}``."""
+    ``policy_kwargs``: ``{"features_extractor_kwargs": {"limits": {...}, "dim": 64}}``; with
+    ``"share_features_extractor": False`` the critic has its own extractor (its gradients
+    never move the actor's tokens), which computes only the summary ``[g, s]``."""
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("features_extractor_class", SetExtractor)
@@ -187,7 +193,12 @@ class SetPolicy(MaskableActorCriticPolicy):
         stores that same array, so PPO's update evaluates each action under its own mask."""
         if self.claim_rows is None or action_masks is None:
             return super().forward(obs, deterministic, action_masks)
-        latent_pi, latent_vf = self.mlp_extractor(self.extract_features(obs))
+        features = self.extract_features(obs)
+        if self.share_features_extractor:
+            latent_pi, latent_vf = self.mlp_extractor(features)
+        else:
+            latent_pi = self.mlp_extractor.forward_actor(features[0])
+            latent_vf = self.mlp_extractor.forward_critic(features[1])
         masks = th.as_tensor(np.asarray(action_masks, dtype=bool).reshape(len(obs), -1))
         limits = self.features_extractor.limits
         actions, seen = claim_in_turn(obs, latent_pi, masks, limits, self.claim_rows,
@@ -203,6 +214,8 @@ class SetPolicy(MaskableActorCriticPolicy):
 
     def _build(self, lr_schedule) -> None:
         super()._build(lr_schedule)
+        if not self.share_features_extractor:  # the critic reads only its extractor's [g, s]
+            self.vf_features_extractor.summary_only = True
         self.action_net = nn.Identity()  # the logits are the actor's latent
         self.optimizer = self.optimizer_class(
             self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs

@@ -179,14 +179,14 @@ def test_no_illegal_task_ever_has_a_finite_logit(hall, data):
     assert choice == 0 or allowed[choice - 1]
 
 
-def _model(limits, n_copies=1, heads=0):
+def _model(limits, n_copies=1, heads=0, **policy_kwargs):
     name, cranes = SITES[0]
     venv = SetVecEnv(lambda i: task_env(name, cranes), n_copies, limits)
     hp = set_hyperparameters(
         {
             "n_steps": 8,
             "batch_size": 16,
-            "policy_kwargs": {"features_extractor_kwargs": {"heads": heads}},
+            "policy_kwargs": {"features_extractor_kwargs": {"heads": heads}, **policy_kwargs},
         }
     )
     return make_set_model(venv, 0, hp, None), venv  # fmt: skip
@@ -377,3 +377,25 @@ def test_an_untrained_greedy_policy_does_not_wait_forever():
     obs, _ = env.reset(seed=0)
     acts = policy(obs)
     assert any(x != 0 for x in acts.values())  # idle cranes with tasks take one
+
+
+def test_an_unshared_critic_reads_the_summary_and_never_moves_the_actor(hall):
+    _, batch = hall
+    model, venv = _model(LIM, share_features_extractor=False)
+    policy = model.policy
+    policy.claim_rows = venv.n_agents  # as the training run samples (claims.py)
+    actor, critic = policy.pi_features_extractor, policy.vf_features_extractor
+    assert actor is policy.features_extractor and critic is not actor
+    assert critic.summary_only and not actor.summary_only
+    obs = th.as_tensor(batch.astype(np.float32))
+    critic.summary_only = False  # the full output's summary is what the critic reads
+    full = critic(obs).detach()
+    critic.summary_only = True
+    n = LIM.n_actions
+    assert th.equal(critic(obs)[:, n:], full[:, n:]) and not critic(obs)[:, :n].any()
+    policy.predict_values(obs).sum().backward()  # a critic-only loss
+    assert all(p.grad is None for p in actor.parameters())
+    assert any(p.grad is not None and p.grad.abs().sum() > 0 for p in critic.parameters())
+    before = [p.detach().clone() for p in critic.parameters()]
+    model.learn(32)  # PPO's rollouts (claims in turn) and updates run with two extractors
+    assert any(not th.equal(a, p) for a, p in zip(before, critic.parameters(), strict=True))
