@@ -40,6 +40,7 @@ from multicrane.training.checkpoints import (
 )
 from multicrane.training.clone_term import with_cloning
 from multicrane.training.config import ConfigError, TrainConfig
+from multicrane.training.policy_change import with_policy_change
 from multicrane.training.run_envs import (
     evaluate_model,
     make_vec_env,
@@ -296,7 +297,7 @@ class Run:
         self._session_start = time.perf_counter()
         interrupt = _Interrupt()
         monitor = _RunMonitor(self, stop_at, interrupt, progress_bar)
-        callback = with_cloning(self, monitor)  # monitor alone unless cfg.clone_weight
+        callback = with_policy_change(self.model, with_cloning(self, monitor))
         remaining = self.cfg.total_steps - self.model.num_timesteps
         with interrupt.installed():
             if remaining > 0:

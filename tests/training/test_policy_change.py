@@ -1,0 +1,77 @@
+"""``train/policy_kl``: the KL between the whole masked policies before and after each PPO
+update, on the update's own states; it changes nothing the learner does."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("sb3_contrib")
+
+import torch as th  # noqa: E402
+from stable_baselines3.common.callbacks import BaseCallback, CallbackList  # noqa: E402
+from stable_baselines3.common.logger import KVWriter, Logger  # noqa: E402
+
+from multicrane.envs.crane_env import MultiCraneEnv  # noqa: E402
+from multicrane.training.policy_change import PolicyChange, with_policy_change  # noqa: E402
+from multicrane.training.set_obs import SetLimits  # noqa: E402
+from multicrane.training.set_training import make_set_model, set_hyperparameters  # noqa: E402
+from multicrane.training.set_vec_env import SetVecEnv  # noqa: E402
+
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
+
+
+class _Kept(KVWriter):
+    def __init__(self):
+        self.dumps = []
+
+    def write(self, key_values, key_excluded, step=0):
+        self.dumps.append(dict(key_values))
+
+
+class _Idle(BaseCallback):
+    def _on_step(self) -> bool:
+        return True
+
+
+def _learn(with_change: bool, learning_rate=1e-3):
+    env = MultiCraneEnv("e2s2", n_cranes=2, decisions="task")
+    venv = SetVecEnv(lambda i: MultiCraneEnv("e2s2", n_cranes=2, decisions="task"), 2,
+                     SetLimits.of(env.observation_layout))  # fmt: skip
+    hp = set_hyperparameters({"n_steps": 16, "batch_size": 32, "learning_rate": learning_rate})
+    model = make_set_model(venv, 0, hp, None)
+    model.policy.claim_rows = venv.n_agents
+    kept = _Kept()
+    model.set_logger(Logger(folder=None, output_formats=[kept]))
+    callback = with_policy_change(model, _Idle()) if with_change else _Idle()
+    model.learn(3 * 16 * venv.num_envs, callback=callback)
+    return model, kept.dumps
+
+
+def test_the_run_learns_the_same_parameters_and_logs_the_change():
+    plain, dumps_plain = _learn(False)
+    watched, dumps = _learn(True)
+    a, b = plain.policy.state_dict(), watched.policy.state_dict()
+    assert a.keys() == b.keys() and all(th.equal(a[k], b[k]) for k in a)
+    assert not any("train/policy_kl" in d for d in dumps_plain)
+    kls = [d["train/policy_kl"] for d in dumps if "train/policy_kl" in d]
+    assert len(kls) == 2 and all(np.isfinite(k) and k > 0 for k in kls)  # updates 1 and 2
+
+
+def test_no_update_no_change():
+    _, dumps = _learn(True, learning_rate=0.0)
+    kls = [d["train/policy_kl"] for d in dumps if "train/policy_kl" in d]
+    assert kls and all(k == 0.0 for k in kls)
+
+
+def test_which_learners_get_it():
+    from stable_baselines3 import DQN, PPO
+
+    from multicrane.envs.paper_env import PaperAssemblyEnv
+
+    env = PaperAssemblyEnv("E1S1")
+    idle = _Idle()
+    added = with_policy_change(PPO("MlpPolicy", env, n_steps=8, batch_size=8), idle)
+    assert isinstance(added, CallbackList)
+    assert [type(c) for c in added.callbacks] == [PolicyChange, _Idle]
+    assert with_policy_change(DQN("MlpPolicy", env), idle) is idle
