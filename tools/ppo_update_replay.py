@@ -15,10 +15,10 @@ it stops the run after the last one.
 ``--variant``: ``NAME:KEY=VALUE,...`` with keys ``lr``, ``eps`` and ``betas2`` (Adam's),
 ``n_epochs``, ``batch_size``, ``max_grad_norm``, ``ent_coef``, ``vf_coef``, ``clip_range``
 and ``target_kl``. Each line gives SB3's ``approx_kl`` (the sampled actions only, last
-epoch), the KL between the whole masked policies before and after, on every state of the
-update (mean and max), their entropy before and after, the probability of action 0
-(waiting, in task mode) and the share of states with more than one allowed action whose
-greedy action changed. docs/marl-results.md ("Why PPO from random weights collapsed") is
+epoch), then over the update's states with more than one allowed action: the KL between
+the whole masked policies before and after (mean and max), their entropy before and after,
+the probability of action 0 (waiting, in task mode) and the share whose greedy action
+changed. docs/marl-results.md ("Why PPO from random weights collapsed") is
 what it found. Needs the ``train`` extra.
 """
 
@@ -108,16 +108,17 @@ def replay_once(where: Path, settings: dict):
     before = _policy_log_probs(model.policy, obs, masks)
     model.train()
     after = _policy_log_probs(model.policy, obs, masks)
+    many = th.as_tensor(masks.sum(-1) > 1)  # states with a choice: elsewhere nothing moves
+    before, after = before[many], after[many]
     p0, p1 = before.exp(), after.exp()
     kl = th.where(p0 > 0, p0 * (before - after), th.zeros_like(p0)).sum(-1)
     entropy = lambda p, lp: -th.where(p > 0, p * lp, th.zeros_like(p)).sum(-1)  # noqa: E731
-    many = th.as_tensor(masks.sum(-1) > 1)
     return model, {
         "approx_kl": float(model.logger.name_to_value["train/approx_kl"]),
         "kl_mean": float(kl.mean()), "kl_max": float(kl.max()),
         "entropy": (float(entropy(p0, before).mean()), float(entropy(p1, after).mean())),
         "p_action0": (float(p0[:, 0].mean()), float(p1[:, 0].mean())),
-        "greedy_changed": float((before.argmax(-1) != after.argmax(-1))[many].float().mean()),
+        "greedy_changed": float((before.argmax(-1) != after.argmax(-1)).float().mean()),
     }
 
 

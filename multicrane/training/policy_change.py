@@ -4,10 +4,11 @@ SB3's ``train/approx_kl`` averages ``(r - 1) - log r`` over the sampled actions 
 update that moves probability onto an action the rollout hardly ever took (waiting, on
 hall-4c) reads small while the policy has changed on most states: in a captured update of a
 collapsed run the sampled-action estimate read 0.025 while the KL between the whole masked
-distributions before and after was 1.72 (docs/marl-results.md, "Why PPO from random weights
+distributions before and after was 1.72 on the states with a choice (docs/marl-results.md, "Why PPO from random weights
 collapsed"). ``PolicyChange`` logs the latter, ``train/policy_kl``: at the end of each rollout
-it keeps every ``stride``-th row of the rollout buffer (observations and action masks) with
-the policy's log-probabilities there, and after the update it records the mean
+it keeps about ``ROWS`` rows evenly spaced through the rollout buffer (observations and
+action masks; with masks, only the rows with more than one allowed action: the others cannot
+change) with the policy's log-probabilities there, and after the update it records the mean
 ``KL(before || after)`` over those rows. No random numbers are drawn and nothing the learner
 sees changes, so a run with it learns exactly what it learns without it (tested).
 
@@ -46,10 +47,14 @@ class PolicyChange(BaseCallback):
         buffer = self.model.rollout_buffer
         obs = buffer.observations.reshape(-1, *buffer.obs_shape)
         stride = max(1, len(obs) // self.rows)
-        picked = th.as_tensor(np.ascontiguousarray(obs[::stride]), dtype=th.float32)
+        rows = np.arange(0, len(obs), stride)
         masks = getattr(buffer, "action_masks", None)
-        if masks is not None:
-            masks = np.ascontiguousarray(masks.reshape(len(obs), -1)[::stride])
+        if masks is not None:  # the states with a choice: elsewhere nothing can move
+            masks = masks.reshape(len(obs), -1)[rows].astype(bool)
+            rows, masks = rows[masks.sum(-1) > 1], masks[masks.sum(-1) > 1]
+            if not len(rows):
+                return
+        picked = th.as_tensor(np.ascontiguousarray(obs[rows]), dtype=th.float32)
         self.kept = (picked, masks, self._log_probs(picked, masks))
 
     def _on_rollout_start(self) -> None:
