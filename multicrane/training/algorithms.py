@@ -198,7 +198,7 @@ def hyperparameters(algo: Algorithm, config: str | None, overrides: dict[str, An
     if config is not None and algo.off_policy:
         params["gamma"] = paper_gamma(config)
     accepted = set(inspect.signature(algo.cls.__init__).parameters) - {"self", "policy", "env"}
-    accepted |= {"obs_scale", "features", "anneal_lr"}
+    accepted |= {"obs_scale", "features", "anneal_lr", "max_policy_kl"}
     for key, value in overrides.items():
         if key not in accepted or key in FIXED_SETTINGS:
             raise ValueError(

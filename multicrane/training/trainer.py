@@ -40,7 +40,7 @@ from multicrane.training.checkpoints import (
 )
 from multicrane.training.clone_term import with_cloning
 from multicrane.training.config import ConfigError, TrainConfig
-from multicrane.training.policy_change import with_policy_change
+from multicrane.training.policy_change import checked_max_kl, with_policy_change
 from multicrane.training.run_envs import (
     evaluate_model,
     make_vec_env,
@@ -177,6 +177,7 @@ class Run:
                 self.algo, cfg.scenario if cfg.paper else None, cfg.hyperparams
             )
         self.params = round_gamma(self.params, cfg.decisions, cfg.reward, cfg.hyperparams)
+        self.max_policy_kl = checked_max_kl(self.params.pop("max_policy_kl", None), self.algo)
         self.progress: dict[str, Any] = {}
         self.model = None
         self.venv = None
@@ -297,7 +298,8 @@ class Run:
         self._session_start = time.perf_counter()
         interrupt = _Interrupt()
         monitor = _RunMonitor(self, stop_at, interrupt, progress_bar)
-        callback = with_policy_change(self.model, with_cloning(self, monitor))
+        callback = with_policy_change(self.model, with_cloning(self, monitor),
+                                      self.max_policy_kl)  # fmt: skip
         remaining = self.cfg.total_steps - self.model.num_timesteps
         with interrupt.installed():
             if remaining > 0:
