@@ -27,6 +27,7 @@ SET_PPO: dict[str, Any] = dict(
     clip_range=0.2,
     ent_coef=0.01,
     policy_kwargs={"features_extractor_kwargs": {"dim": 64, "heads": 0}},
+    max_policy_kl=0.1,  # an update past it is made again smaller (policy_change.py)
 )
 SET_COPIES = 8
 
@@ -118,7 +119,9 @@ def make_set_model(venv, seed: int, params: dict[str, Any], tensorboard_log: str
     from multicrane.training.algorithms import with_lr_schedule
     from multicrane.training.set_policy import SetPolicy
 
-    params = with_lr_schedule(MaskablePPO, params)
+    # max_policy_kl: the training run's callback applies it (policy_change.py)
+    params = with_lr_schedule(MaskablePPO, {k: v for k, v in params.items()
+                                            if k != "max_policy_kl"})  # fmt: skip
     policy_kwargs = dict(params.pop("policy_kwargs", {}))
     fx = dict(policy_kwargs.pop("features_extractor_kwargs", {}))
     fx["limits"] = venv.limits.to_dict()

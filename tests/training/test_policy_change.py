@@ -119,3 +119,18 @@ def test_the_limit_is_checked():
         checked_max_kl(0.1, algorithm("dqn", paper=True))
     assert checked_max_kl(None, algorithm("dqn", paper=True)) is None
     assert checked_max_kl(1, algorithm("ppo", paper=True)) == 1.0
+
+
+def test_the_set_policy_trains_with_the_limit_unless_turned_off(tmp_path):
+    from multicrane.training import TrainConfig
+    from multicrane.training.set_training import SET_PPO
+    from multicrane.training.trainer import Run
+
+    def run(**hyperparams):
+        cfg = TrainConfig("e2s2", paper=False, n_cranes=2, decisions="task",
+                          algo="maskable_ppo", policy="set", hyperparams=hyperparams)  # fmt: skip
+        return Run(cfg, tmp_path / str(len(hyperparams)))
+
+    assert run().max_policy_kl == SET_PPO["max_policy_kl"] == 0.1
+    assert run(max_policy_kl=None).max_policy_kl is None
+    assert "max_policy_kl" not in run().params  # the callback's, not the learner's
