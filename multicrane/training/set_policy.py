@@ -170,6 +170,16 @@ class _Heads(nn.Module):
         return self.critic(features[:, self.n_logits :])
 
 
+def latents(policy, obs: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+    """The actor's and the critic's latents of an SB3 actor-critic ``policy``, with one
+    feature extractor shared or one each."""
+    features = policy.extract_features(obs)
+    if policy.share_features_extractor:
+        return policy.mlp_extractor(features)
+    return (policy.mlp_extractor.forward_actor(features[0]),
+            policy.mlp_extractor.forward_critic(features[1]))  # fmt: skip
+
+
 class SetPolicy(MaskableActorCriticPolicy):
     """MaskablePPO's actor-critic with ``SetExtractor``; the logits are the pointer head's.
 
@@ -193,12 +203,7 @@ class SetPolicy(MaskableActorCriticPolicy):
         stores that same array, so PPO's update evaluates each action under its own mask."""
         if self.claim_rows is None or action_masks is None:
             return super().forward(obs, deterministic, action_masks)
-        features = self.extract_features(obs)
-        if self.share_features_extractor:
-            latent_pi, latent_vf = self.mlp_extractor(features)
-        else:
-            latent_pi = self.mlp_extractor.forward_actor(features[0])
-            latent_vf = self.mlp_extractor.forward_critic(features[1])
+        latent_pi, latent_vf = latents(self, obs)
         masks = th.as_tensor(np.asarray(action_masks, dtype=bool).reshape(len(obs), -1))
         limits = self.features_extractor.limits
         actions, seen = claim_in_turn(obs, latent_pi, masks, limits, self.claim_rows,

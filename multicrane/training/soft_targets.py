@@ -73,12 +73,9 @@ def valued_rows(values: np.ndarray, actions: np.ndarray) -> np.ndarray:
 def evaluate(policy, obs: th.Tensor, masks: np.ndarray) -> tuple[th.Tensor, th.Tensor]:
     """(values, every action's masked log-probability) in one pass: what a maskable
     actor-critic's ``evaluate_actions`` computes, for all actions at once."""
-    features = policy.extract_features(obs)
-    if policy.share_features_extractor:
-        latent_pi, latent_vf = policy.mlp_extractor(features)
-    else:
-        latent_pi = policy.mlp_extractor.forward_actor(features[0])
-        latent_vf = policy.mlp_extractor.forward_critic(features[1])
+    from multicrane.training.set_policy import latents
+
+    latent_pi, latent_vf = latents(policy, obs)
     distribution = policy._get_action_dist_from_latent(latent_pi)
     distribution.apply_masking(masks)
     return policy.value_net(latent_vf), distribution.distribution.logits
