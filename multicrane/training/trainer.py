@@ -333,7 +333,7 @@ class Run:
         result = {
             "config": self.cfg.to_dict(),
             "algorithm": self.algo.label,
-            "hyperparameters": _jsonable(self.params),
+            "hyperparameters": _jsonable({**self.params, "max_policy_kl": self.max_policy_kl}),
             "steps": int(self.model.num_timesteps),
             "final": summary,
             "final_episodes": episodes,
