@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from multicrane.sim.shortest_paths import UNREACHABLE, breadth_first, fits_everywhere
+from multicrane.sim.shortest_paths import UNREACHABLE, fits_everywhere
 from multicrane.sim.simulator import FREE, Simulator
 from multicrane.tasks.reservations import goal_position
+from multicrane.tasks.search_kernels import breadth_first_kernel
 
 
 class StaticPaths:
@@ -26,6 +27,7 @@ class StaticPaths:
         self._fit: dict[tuple, np.ndarray] = {}
         self._dist: dict[tuple, list[int]] = {}  # as lists: read one entry at a time
         self._goal: dict[tuple, int | None] = {}  # (shape, target) -> the goal pose
+        self._deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
 
     def length(self, pickup: list[int], target: int, zone: int) -> int:
         """Moves from the pick-up pose to the target's pose (``UNREACHABLE``: none)."""
@@ -61,6 +63,6 @@ class StaticPaths:
                 if zone >= 0:
                     fit &= fits_everywhere(self.sim.site.reach[zone], rel)
                 self._fit[(rel, zone)] = fit
-            dist = breadth_first(fit, [goal], self.sim.site.move_delta).tolist()
+            dist = breadth_first_kernel(fit, goal, self._deltas).tolist()
             self._dist[key] = dist
         return dist
