@@ -87,8 +87,9 @@ def register(sub) -> None:
                    help="multi-agent task mode: 'set' for the set-based shared policy "
                    "(default mlp; set with --curriculum)")  # fmt: skip
     p.add_argument("--curriculum", default=None, metavar="NAME",
-                   help="train the set policy on generated 'train' sites that grow (grow, "
-                   "flat); evaluated on set:test-small sites")  # fmt: skip
+                   help="train the set policy on generated 'train' sites: grow (16 sites a "
+                   "stage, growing), flat (16 sites), wide (1,024 sites); evaluated on "
+                   "set:test-small sites")  # fmt: skip
     p.add_argument("--set-limits", default=None, metavar="C,N,P",
                    help="set policy: padded components, cranes, tasks (default: the site's)")
     p.add_argument("--workers", type=int, default=1,
@@ -96,6 +97,9 @@ def register(sub) -> None:
     p.add_argument("--reward", choices=("paper", "makespan"), default="paper",
                    help="multi-agent: the environments' reward, the paper's (default) or "
                    "makespan (-1 per simulated step; what the makespan tables measure)")
+    p.add_argument("--reward-scale", choices=("none", "site"), default="none",
+                   help="set policy: 'site' divides the learner's reward by each site's static "
+                   "work per crane, so sites of every size weigh alike (default none)")  # fmt: skip
     _imitation_options(p)
     p.add_argument("--keep-best", action="store_true",
                    help="keep the model of the curve point with the best return on validation "
@@ -213,6 +217,7 @@ def build_config(args: argparse.Namespace):
         workers=args.workers,
         events=args.events,
         reward=args.reward,
+        reward_scale=args.reward_scale,
         imitate=args.imitate,
         imitate_episodes=args.imitate_episodes,
         imitate_epochs=args.imitate_epochs,

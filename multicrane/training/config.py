@@ -58,7 +58,10 @@ class TrainConfig:
     ``"high"`` (``multicrane.sim.events``; None: the scenario's own ``[events]`` table, if any).
     ``reward`` (multi-agent mode): the environments' reward, ``"paper"`` (the paper's team
     reward) or ``"makespan"`` (``-1`` per simulated step and the completion bonus: what the
-    makespan comparisons measure; ``multicrane.envs.reward``). ``imitate`` (multi-agent
+    makespan comparisons measure; ``multicrane.envs.reward``). ``reward_scale`` (set
+    policy): ``"site"`` divides the learner's reward by each site's static work per crane
+    (``set_vec_env.site_work``), so sites of every size weigh alike (default ``"none"``).
+    ``imitate`` (multi-agent
     MaskablePPO): the name of a teacher policy (``"prioritized"``, ``"lookahead"``) whose
     choices the fresh policy is fitted to before PPO starts
     (``multicrane.training.imitation``): ``imitate_episodes`` teacher episodes,
@@ -118,6 +121,7 @@ class TrainConfig:
     workers: int = 1
     events: str | None = None
     reward: str = "paper"
+    reward_scale: str = "none"
     imitate: str | None = None
     imitate_episodes: int = 64
     imitate_epochs: int = 10
@@ -189,6 +193,11 @@ class TrainConfig:
 
         if self.reward not in REWARDS:
             raise ConfigError(f"reward={self.reward!r}: one of {', '.join(REWARDS)}")
+        if self.reward_scale not in ("none", "site") or (
+            self.reward_scale != "none" and self.policy != "set"
+        ):
+            raise ConfigError(f"reward_scale={self.reward_scale!r}: 'none', or 'site' with the "
+                              "set policy")  # fmt: skip
         if self.paper and self.reward != "paper":
             raise ConfigError(f"reward={self.reward!r}: a multi-agent option, not paper mode")
         if not isinstance(self.hyperparams, dict):

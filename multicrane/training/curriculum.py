@@ -22,9 +22,9 @@ The stage, its counters and every copy's generator are part of the checkpoint (e
 
 from __future__ import annotations
 
-from collections import deque
+from collections import OrderedDict, deque
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 from multicrane.core.schema import Scenario
 from multicrane.envs.crane_env import MultiCraneEnv
@@ -61,10 +61,16 @@ CURRICULA: dict[str, Plan] = {
     ),
     # One stage of every size: the schedule without growth, for comparison.
     "flat": Plan(stages=(Stage((1, 32), max_episodes=10**9),), limits=SetLimits(32, 4, 320)),
+    # "flat" over 1,024 sites instead of 16: a policy trained on few sites learns those sites,
+    # not a rule that carries over to new ones (Cobbe et al. 2019 measured it on CoinRun).
+    "wide": Plan(
+        stages=(Stage((1, 32), max_episodes=10**9),), limits=SetLimits(32, 4, 320), pool=1024
+    ),
 }
+ENVS_PER_COPY = 32  # a copy keeps the environments of its last sites (each holds its caches)
 
 
-@lru_cache(maxsize=256)
+@cache
 def _site(seed: int) -> Scenario:
     return train_member(seed).scenario()
 
@@ -140,21 +146,32 @@ class SiteCurriculum:
         self.recent: deque[bool] = deque(maxlen=self.plan.window)
         self.history: list[dict] = []  # one entry per stage change
         self.site_of = [-1] * n_copies  # the train seed each copy plays
-        self._cache: dict[tuple[int, int], MultiCraneEnv] = {}
+        self._envs: dict[int, OrderedDict[int, MultiCraneEnv]] = {}  # copy -> site -> env
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        state["_cache"] = {}  # environments are rebuilt on demand (every reset is seeded)
+        state["_envs"] = {}  # environments are rebuilt on demand (every reset is seeded)
         return state
 
+    def __setstate__(self, state: dict) -> None:
+        state.pop("_cache", None)  # (checkpoints before the per-copy cache)
+        self.__dict__.update({"_envs": {}, **state})
+
     def env(self, seed: int, copy: int = 0) -> MultiCraneEnv:
-        key = (copy, seed)
-        if key not in self._cache:
-            self._cache[key] = MultiCraneEnv(
-                _site(seed), decisions="task", max_steps=self.max_steps,
-                reward=getattr(self, "reward", "paper"),  # (checkpoints before the option)
-            )
-        return self._cache[key]
+        """Copy ``copy``'s environment of site ``seed``: kept while it is among the copy's
+        last ``ENVS_PER_COPY`` sites, built again after (the same episodes: resets are
+        seeded)."""
+        envs = self._envs.setdefault(copy, OrderedDict())
+        if seed in envs:
+            envs.move_to_end(seed)
+            return envs[seed]
+        envs[seed] = env = MultiCraneEnv(
+            _site(seed), decisions="task", max_steps=self.max_steps,
+            reward=getattr(self, "reward", "paper"),  # (checkpoints before the option)
+        )  # fmt: skip
+        while len(envs) > ENVS_PER_COPY:
+            envs.popitem(last=False)
+        return env
 
     def first_env(self, copy: int) -> MultiCraneEnv:
         """A copy's environment before its first reset (stage 0's first site)."""

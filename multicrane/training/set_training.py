@@ -102,14 +102,16 @@ def make_set_vec_env(cfg, n_envs: int, gamma: float, workers: int | None = None)
 
         sites = SiteCurriculum(cfg.curriculum, n_envs, max_steps=cfg.max_steps,
                                reward=cfg.reward)  # fmt: skip
-        return SetVecEnv(sites.first_env, n_envs, limits, cfg.shaping_weight, gamma, sites)
+        return SetVecEnv(sites.first_env, n_envs, limits, cfg.shaping_weight, gamma, sites,
+                         reward_scale=cfg.reward_scale)  # fmt: skip
 
     def make(copy: int):
         return MultiCraneEnv(cfg.scenario, n_cranes=cfg.n_cranes, max_steps=cfg.max_steps,
                              decisions="task", events=cfg.events,
                              reward=cfg.reward)  # fmt: skip
 
-    return SetVecEnv(make, n_envs, limits, cfg.shaping_weight, gamma)
+    return SetVecEnv(make, n_envs, limits, cfg.shaping_weight, gamma,
+                     reward_scale=cfg.reward_scale)
 
 
 def make_set_model(venv, seed: int, params: dict[str, Any], tensorboard_log: str | None):

@@ -288,6 +288,24 @@ def test_curriculum_run_moves_on_and_resumes_exactly(tiny_curriculum, tmp_path):
     assert resumed["curriculum"] == ref["curriculum"]
 
 
+def test_a_copy_keeps_few_environments_and_builds_the_rest_again(tiny_curriculum, tmp_path,
+                                                                 monkeypatch):  # fmt: skip
+    """Built again after eviction, a site plays the same episodes: the same parameters."""
+    cfg = _tiny_cfg(tiny_curriculum, 64 * 3)
+    train(cfg, tmp_path / "kept", log=lambda *a: None)
+    monkeypatch.setattr(cur, "ENVS_PER_COPY", 1)
+    sites = cur.SiteCurriculum(tiny_curriculum, 1)
+    rng = np.random.default_rng(0)
+    for _ in range(6):
+        env = sites.next_env(0, rng)
+        assert list(sites._envs[0].values()) == [env]  # only the last site's environment
+    train(cfg, tmp_path / "rebuilt", log=lambda *a: None)
+    a, _ = load_run(tmp_path / "kept")
+    b, _ = load_run(tmp_path / "rebuilt")
+    sa, sb = a.policy.state_dict(), b.policy.state_dict()
+    assert all(th.equal(sa[k], sb[k]) for k in sa)
+
+
 def test_worker_processes_give_the_same_rows_as_one_process():
     from multicrane.training.set_training import _Blocks
     from multicrane.training.set_workers import WorkerSetVecEnv
