@@ -15,6 +15,7 @@ from multicrane.files import write_atomic
 
 CHECKPOINT = "checkpoint"  # the run directory's checkpoint folder (see training.trainer)
 DEFAULT_SHAPING = 1.0  # multi-agent mode; see multicrane.training.shaping
+REWARD_SCALES = ("none", "site")  # the set policy's reward scaling (training.set_vec_env)
 POTENTIALS = ("distance", "path")  # paper mode's shaping potentials (training.shaping)
 
 
@@ -193,7 +194,7 @@ class TrainConfig:
 
         if self.reward not in REWARDS:
             raise ConfigError(f"reward={self.reward!r}: one of {', '.join(REWARDS)}")
-        if self.reward_scale not in ("none", "site") or (
+        if self.reward_scale not in REWARD_SCALES or (
             self.reward_scale != "none" and self.policy != "set"
         ):
             raise ConfigError(f"reward_scale={self.reward_scale!r}: 'none', or 'site' with the "
