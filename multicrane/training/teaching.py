@@ -44,6 +44,8 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
             "max_steps": cfg.max_steps, "shaping": cfg.shaping_weight, "shaping_gamma": gamma,
             "gamma": params["gamma"], "seed": demonstration_seed(cfg.seed),
             "claims": "exclusive"}  # fmt: skip
+    if cfg.reward_scale != "none":  # the rows' returns are in the scaled reward
+        meta["reward_scale"] = cfg.reward_scale
     if cfg.imitate_soft is not None:  # the rows also keep the teacher's values (soft targets)
         meta["values"] = "candidate makespans"
     if cfg.init_from is None:

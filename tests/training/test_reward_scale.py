@@ -79,3 +79,24 @@ def test_reward_scale_is_checked():
     with pytest.raises(ConfigError, match="reward_scale='site'"):
         TrainConfig("e2s2", paper=False, n_cranes=2, decisions="task", algo="maskable_ppo",
                     reward_scale="site")  # fmt: skip
+
+
+def test_a_demonstrations_file_of_the_raw_reward_is_refused_by_a_scaled_run(tmp_path):
+    """The teacher's rows carry returns in the run's reward: raw and scaled files differ."""
+    import policies
+    from multicrane.training import train
+    from multicrane.training.imitation import DemonstrationsError
+
+    def cfg(scale):
+        return TrainConfig("e3s2", paper=False, n_cranes=2, decisions="task",
+                           algo="maskable_ppo", policy="set", imitate="prioritized",
+                           imitate_episodes=2, imitate_epochs=1, reward="makespan", shaping=0.0,
+                           n_envs=2, total_steps=64, eval_every=0, eval_episodes=1,
+                           checkpoint_every=0, imitate_demos=str(tmp_path / "demos.npz"),
+                           reward_scale=scale, hyperparams={"n_steps": 8, "batch_size": 16,
+                                                            "n_epochs": 1})  # fmt: skip
+
+    teacher = policies.factory("prioritized")
+    train(cfg("none"), tmp_path / "raw", teacher=teacher, log=lambda *a: None)
+    with pytest.raises(DemonstrationsError, match="reward_scale: file None != run 'site'"):
+        train(cfg("site"), tmp_path / "scaled", teacher=teacher, log=lambda *a: None)
