@@ -25,6 +25,7 @@ SB3_ONLY = {
     "shaping": None,
     "policy": None,
     "curriculum": None,
+    "reward_scale": "none",
     "set_limits": None,
     "workers": 1,
 }

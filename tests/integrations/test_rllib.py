@@ -96,6 +96,8 @@ def test_ppo_config_fails_early_on_a_bad_scenario():
     [
         (["--paper", "E2S2"], "use --scenario"),
         (["--scenario", "e2s2", "--algo", "ppo"], "--algo is an option of the sb3 backend"),
+        (["--scenario", "e2s2", "--reward-scale", "site"],
+         "--reward-scale is an option of the sb3 backend"),
         (["--scenario", "e2s2", "--set", "lr"], "expected KEY=VALUE"),
     ],
 )
