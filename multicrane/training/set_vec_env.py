@@ -37,10 +37,11 @@ def site_work(env: MultiCraneEnv) -> float:
     least 1). On 40 ``train`` sites of 1-32 components it tracks the prioritized planner's
     makespan (correlation of the logarithms 0.96; makespan / work 1.08-1.99, median 1.35)."""
     book = env.mode.task_book()
-    lengths = np.where(book.static_ok, book.static_len, np.iinfo(np.int64).max).min(axis=0)
-    per_component = np.full(env.sim.site.n_components, np.iinfo(np.int64).max)
+    none = np.iinfo(np.int64).max  # no crane reaches it
+    lengths = np.where(book.static_ok, book.static_len, none).min(axis=0)
+    per_component = np.full(env.sim.site.n_components, none)
     np.minimum.at(per_component, book.tasks.comp, lengths)
-    reachable = per_component[per_component < np.iinfo(np.int64).max]
+    reachable = per_component[per_component < none]
     return max(1.0, float(reachable.sum()) / len(env.possible_agents))
 
 
