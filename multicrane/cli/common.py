@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import ast
 import sys
 
 from multicrane.envs.decision_modes import DECISION_MODES, DEFAULT_DECISIONS
@@ -30,6 +31,32 @@ def missing_extra(exc: BaseException | None) -> str | None:
             return EXTRAS[name]
         exc = exc.__cause__ or exc.__context__
     return None
+
+
+# The spellings of TOML, JSON and YAML for the Python literals True, False and None.
+_WORDS = {"true": True, "false": False, "none": None, "null": None}
+
+
+def set_value(text: str):
+    """A ``--set`` value: a Python literal (number, boolean, list, dict; ``true``, ``false``
+    and ``null`` in any case too), else the string itself."""
+    if text.lower() in _WORDS:
+        return _WORDS[text.lower()]
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        return text
+
+
+def set_overrides(items: list[str]) -> dict:
+    """The ``--set KEY=VALUE`` options as a dict; ValueError names an item without ``=``."""
+    overrides = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--set {item!r}: expected KEY=VALUE")
+        overrides[key.strip()] = set_value(value.strip())
+    return overrides
 
 
 def needs_extra(command: str, extra: str) -> int:

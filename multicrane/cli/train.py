@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import ast
 import os
 from pathlib import Path
 
 from multicrane.cli import progress
-from multicrane.cli.common import add_environment_args, error, formatter
+from multicrane.cli.common import add_environment_args, error, formatter, set_overrides
 
 DESCRIPTION = """Train a policy: the paper's single-agent algorithms, or parameter-sharing PPO
 for cranes (needs the 'train' extra).
@@ -157,24 +156,11 @@ def _imitation_options(p) -> None:
                    "would start it for the crane now (the policy learns where to depart from it)")
 
 
-def parse_value(text: str):
-    """``--set`` values: Python literals (numbers, booleans, lists, dicts), else strings."""
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
-        return text
-
-
 def build_config(args: argparse.Namespace):
     """The ``TrainConfig`` the options describe."""
     from multicrane.training import TrainConfig
 
-    overrides = {}
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise ValueError(f"--set {item!r}: expected KEY=VALUE")
-        overrides[key.strip()] = parse_value(value.strip())
+    overrides = set_overrides(args.set)
     paper = args.paper is not None
     policy = args.policy or ("set" if args.curriculum else "mlp")
     if args.curriculum and args.scenario != "set:train":

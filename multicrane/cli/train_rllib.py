@@ -11,10 +11,9 @@ machine belongs to; default: a local Ray instance). See ``multicrane.integration
 from __future__ import annotations
 
 import argparse
-import ast
 from pathlib import Path
 
-from multicrane.cli.common import error, needs_extra
+from multicrane.cli.common import error, needs_extra, set_overrides
 
 # ``multicrane train`` options that the RLlib backend does not take, with their defaults.
 SB3_ONLY = {
@@ -46,12 +45,10 @@ def run_rllib(args: argparse.Namespace) -> int:
         from multicrane.integrations.rllib_train import train_rllib
     except ImportError:
         return needs_extra("train --backend rllib", "rllib")
-    training = {}
-    for item in args.set:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            return error(f"--set {item!r}: expected KEY=VALUE")
-        training[key.strip()] = literal(value.strip())
+    try:
+        training = set_overrides(args.set)
+    except ValueError as exc:
+        return error(exc)
     cranes = f"{args.cranes}c-" if args.cranes else ""
     out = args.out or Path("runs") / f"rllib-{Path(args.scenario).stem}-{cranes}s{args.seed}"
     env_options = {"auto": args.auto, "decisions": args.decisions}
@@ -78,11 +75,3 @@ def run_rllib(args: argparse.Namespace) -> int:
     )
     print(f"checkpoint: {result['checkpoint']}  result: {out / 'result.json'}")
     return 0
-
-
-def literal(text: str):
-    """A ``--set`` value: a Python literal (number, boolean, list, dict), else the string."""
-    try:
-        return ast.literal_eval(text)
-    except (ValueError, SyntaxError):
-        return text

@@ -10,7 +10,6 @@ from conftest import one_torch_thread  # noqa: F401 (fixture)
 from sb3_contrib import MaskablePPO
 from stable_baselines3 import PPO
 
-from multicrane.cli.train import parse_value
 from multicrane.training import ConfigError, TrainConfig, train
 from multicrane.training.algorithms import with_lr_schedule
 from multicrane.training.lean_ppo import LeanPPO
@@ -42,10 +41,6 @@ def test_the_schedule_table(cls, params, at_start, halfway):
 def test_the_lean_ppo_anneals_by_itself():
     params = {"learning_rate": 1e-3, "anneal_lr": False}
     assert with_lr_schedule(LeanPPO, params) == params
-
-
-def test_the_command_line_reads_a_bool():
-    assert parse_value("True") is True and parse_value("False") is False
 
 
 PPO_SETTINGS = {"n_steps": 16, "batch_size": 16, "n_epochs": 2, "learning_rate": 1e-3}
