@@ -1,4 +1,5 @@
-"""Named scenario sets: the ``train`` distribution and held-out ``test-small``, ``test-large``.
+"""Named scenario sets: the ``train`` distribution and held-out ``test-small``, ``test-large``,
+``test-other``.
 
 Every site is made by ``multicrane.scenario.generator.generate(family, seed, **params)``; a set is a
 rule that picks the family and the parameters from the seed (``random.Random`` seeded with
@@ -11,6 +12,9 @@ the set's name and the seed), so a member is fully named by ``(set, seed)``.
   the k-th seed aims at 60 + 140 k / 49 components (of 400 shapes drawn, the one nearest
   that size whose site stays within ``MAX_SITE_CELLS``), so the sizes spread over the range;
   its crane count is 4 + 12 j / 49 with j = 7 k mod 50 (every count, in another order).
+- ``test-other``: 50 sites, seeds 3,000,000 .. 3,000,049, outside the training range in two
+  ways at once: a family ``train`` never draws (``precast``: beams, columns and floor slabs,
+  7-34 components, ``PANEL_FAMILIES``) and 5-16 cranes (``train``: 1-4).
 
 The held-out seeds lie outside ``TRAIN_SEEDS``, so no held-out site is a training site.
 Tower-crane reach is drawn only with own targets and fixed starts (see the generator).
@@ -27,7 +31,13 @@ from functools import lru_cache
 from typing import Any
 
 from multicrane.core.schema import Scenario
-from multicrane.scenario.generator import FAMILIES, YARDS, generate, site_cells
+from multicrane.scenario.generator import (
+    FAMILIES,
+    PANEL_FAMILIES,
+    YARDS,
+    generate,
+    site_cells,
+)
 from multicrane.scenario.limits import MAX_SITE_CELLS
 
 TRAIN_SEEDS = range(0, 1_000_000)
@@ -42,11 +52,16 @@ class SetRule:
     components: tuple[int, int]
     cranes: tuple[int, int]
     spread: bool = False  # sizes aimed evenly over ``components`` (else: the first that fits)
+    families: tuple[str, ...] = ()  # the families drawn from (none named: ``FAMILIES``)
 
 
 HELD_OUT: dict[str, SetRule] = {
     "test-small": SetRule(range(1_000_000, 1_000_050), (1, 30), (2, 4)),
     "test-large": SetRule(range(2_000_000, 2_000_050), (60, 200), (4, 16), spread=True),
+    # Any size its family draws (the bound is no bound); slabs count beside columns and beams.
+    "test-other": SetRule(
+        range(3_000_000, 3_000_050), (1, 10**9), (5, 16), families=tuple(PANEL_FAMILIES)
+    ),
 }
 
 
@@ -86,8 +101,8 @@ def _options(rng: random.Random, cranes: tuple[int, int], fixed_reach: bool) -> 
 
 def _member(set_name: str, seed: int, rule: SetRule | None) -> Member:
     rng = random.Random(f"{set_name}:{seed}")
-    family = rng.choice(sorted(FAMILIES))
-    ranges = FAMILIES[family]
+    family = rng.choice(sorted((rule and rule.families) or FAMILIES))
+    ranges = FAMILIES.get(family) or PANEL_FAMILIES[family]
     lo, hi = rule.components if rule else (1, 10**9)
     large = rule is not None and rule.spread
     if large:  # sizes spread evenly over the range, by the seed's place in the set
@@ -121,6 +136,8 @@ def _member(set_name: str, seed: int, rule: SetRule | None) -> Member:
         raise RuntimeError(f"{set_name}: no {family} shape with {lo}..{hi} components")
     shape = best
     params = {**shape, **(opts or _options(rng, rule.cranes if rule else (1, 4), True))}
+    if family in PANEL_FAMILIES:  # panels need fixed starts (drawn all the same, as above)
+        params["random_start"] = False
     return Member(f"{set_name}/{family}-s{seed}", family, seed, tuple(sorted(params.items())))
 
 

@@ -196,6 +196,32 @@ def test_held_out_sets_have_their_sizes_and_disjoint_seeds():
         train_member(1_000_000)
 
 
+def test_test_other_is_a_family_train_never_draws_with_more_cranes_than_train():
+    other = members("test-other")
+    assert len(other) == 50
+    assert {m.family for m in other} == set(generator.PANEL_FAMILIES)
+    assert not {m.family for m in other} & set(generator.FAMILIES)
+    assert {dict(m.params)["cranes"] for m in other} == set(range(5, 17))
+    assert not {dict(m.params)["random_start"] for m in other} - {False}
+    assert not {m.seed for m in other} & set(TRAIN_SEEDS)
+    assert not {m.seed for m in other} & {m.seed for m in members("test-large")}
+    for m in other[:3]:  # what the parameters say, and floor slabs beside the frame
+        s = m.scenario()
+        assert s.cranes == dict(m.params)["cranes"]
+        assert Kind.SLAB in {c.kind for c in s.components}
+    assert members("test-other") == other  # the same members every time
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("name", ["test-small", "test-other"])
+def test_the_planners_finish_every_site_of_a_held_out_set_at_the_task_level(name):
+    for member in members(name):
+        env = multicrane.parallel_env(member.scenario(), decisions="task")
+        for policy in ("prioritized", "greedy"):
+            result = run_episode(env, policies.make(policy, env, seed=0), seed=1_000_000)
+            assert result["success"], (member.name, policy, result["steps"])
+
+
 def test_set_members_generate_what_their_parameters_say():
     for m in members("test-small")[:4]:
         s = m.scenario()
