@@ -35,6 +35,7 @@ from multicrane.scenario.named_sets import (
 )
 from multicrane.scenario.solvable import precedence_cycle
 from multicrane.scenario.writer import to_toml
+from multicrane.suite.tracks import instances, versions
 from multicrane.sim.reach import uncarriable
 
 LARGE = int(os.environ.get("MULTICRANE_GENERATOR_EXAMPLES", "300"))
@@ -191,6 +192,8 @@ def test_held_out_sets_have_their_sizes_and_disjoint_seeds():
     assert {dict(m.params)["cranes"] for m in large} == set(range(4, 17))
     held = {m.seed for rule in HELD_OUT for m in members(rule)}
     assert not held & set(TRAIN_SEEDS)
+    suite_seeds = {spec.generator_seed for v in versions() for spec in instances(v)}
+    assert not held & suite_seeds  # the benchmark suite's sites are not held-out sites
     assert len({m.family for m in small}) == 3 and len({m.family for m in large}) == 3
     with pytest.raises(ValueError, match="outside"):
         train_member(1_000_000)
