@@ -35,8 +35,8 @@ from multicrane.scenario.named_sets import (
 )
 from multicrane.scenario.solvable import precedence_cycle
 from multicrane.scenario.writer import to_toml
-from multicrane.suite.tracks import instances, versions
 from multicrane.sim.reach import uncarriable
+from multicrane.suite.tracks import instances, versions
 
 LARGE = int(os.environ.get("MULTICRANE_GENERATOR_EXAMPLES", "300"))
 
