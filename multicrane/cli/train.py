@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 from pathlib import Path
 
@@ -270,7 +271,8 @@ def run(args: argparse.Namespace) -> int:
         cfg = build_config(args)
         run_dir = args.out or Path("runs") / cfg.name
         bar = not args.no_progress and progress.enabled()
-        result = train(cfg, run_dir, progress_bar=bar, teacher=teacher_of(cfg))
+        log = functools.partial(print, flush=True)  # shown at once when redirected to a file
+        result = train(cfg, run_dir, progress_bar=bar, teacher=teacher_of(cfg), log=log)
     except (ConfigError, ScenarioError, ValueError, RunLockedError) as exc:
         return error(exc)
     if result is None:

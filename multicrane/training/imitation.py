@@ -116,15 +116,16 @@ def demonstration_seed(run_seed: int) -> int:
 
 
 def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
-                make_learner: Callable | None = None,
-                values: bool = False) -> Demonstrations:  # fmt: skip
+                make_learner: Callable | None = None, values: bool = False,
+                progress: Callable[[int], None] | None = None) -> Demonstrations:  # fmt: skip
     """``episodes`` finished teacher episodes on ``venv``'s copies (a ``CraneVecEnv`` or
     ``SetVecEnv``, seeded by the caller); episodes still running when the last one ends are
     left out. With ``make_learner(env, copy) -> act`` (made per episode; ``act(rows, masks)
     -> actions`` for the copy's real crane rows) the learner's actions are played and the
     teacher only labels the states they lead to (DAgger, ``multicrane.training.dagger``);
     the returns are then the learner's. ``values``: also keep the teacher's makespans of its
-    candidates (``soft_targets.record``; a search teacher)."""
+    candidates (``soft_targets.record``; a search teacher). ``progress(finished)`` is called
+    each time an episode ends (a search teacher's episodes take seconds each)."""
     if episodes < 1:
         raise ValueError(f"episodes must be at least 1, got {episodes}")
     rows = venv.n_agents  # SB3 rows per copy (a SetVecEnv's spare rows included)
@@ -163,6 +164,8 @@ def demonstrate(venv, make_teacher: Callable, episodes: int, gamma: float,
                 info = infos[c * rows]
                 makespans.append(info["episode"]["l"] if info["is_success"] else None)
                 teachers[c] = learners[c] = None
+                if progress is not None:
+                    progress(len(makespans))
         obs = after
     return _rows(log, gamma, makespans[:episodes], valued)
 

@@ -60,6 +60,20 @@ def imitate(cfg, params: dict, policy, make_teacher: Callable, log=print) -> dic
     return summary
 
 
+def progress_log(label: str, episodes: int, log=print) -> Callable[[int], None]:
+    """A ``demonstrate`` progress callback that logs every tenth of ``episodes`` (the last
+    included) with the elapsed time, so a long teacher run shows that it moves."""
+    start = time.perf_counter()
+    step = max(1, episodes // 10)
+
+    def report(finished: int) -> None:
+        if finished <= episodes and (finished % step == 0 or finished == episodes):
+            log(f"{label}: {finished}/{episodes} teacher episodes "
+                f"({time.perf_counter() - start:.0f} s)")  # fmt: skip
+
+    return report
+
+
 def _first_imitation(cfg, params: dict, policy, make_teacher: Callable, venv, meta: dict,
                      log=print) -> tuple:  # fmt: skip
     """The teacher's demonstrations (read from ``cfg.imitate_demos`` or played on ``venv``)
@@ -71,8 +85,9 @@ def _first_imitation(cfg, params: dict, policy, make_teacher: Callable, venv, me
         log(f"{cfg.name}: demonstrations from {path}")
     else:
         venv.seed(meta["seed"])
+        progress = progress_log(f"{cfg.name}: {cfg.imitate}", cfg.imitate_episodes, log)
         demos = demonstrate(venv, make_teacher, cfg.imitate_episodes, params["gamma"],
-                            values="values" in meta)  # fmt: skip
+                            values="values" in meta, progress=progress)  # fmt: skip
         if path is not None:
             save(demos, path, meta)
     collected = time.perf_counter() - start

@@ -16,6 +16,7 @@ from multicrane.training.model_policy import load_run
 from multicrane.training.set_obs import SetLimits
 from multicrane.training.set_training import make_set_model, set_hyperparameters
 from multicrane.training.set_vec_env import SetVecEnv
+from multicrane.training.teaching import progress_log
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
@@ -60,6 +61,26 @@ def test_demonstrations_are_the_teachers_finished_episodes():
     completion = MultiCraneEnv("e3s2", n_cranes=2, decisions="task").scenario.reward.completion
     assert demos.returns.max() <= completion - 1 + 1e-6
     assert np.isclose(demos.returns.min(), completion - max(demos.makespans))
+
+
+def test_progress_counts_every_finished_episode_and_logs_tenths():
+    venv = _venv(reward="makespan")
+    venv.seed(3)
+    seen: list[int] = []
+    demos = demonstrate(venv, policies.factory("prioritized"), 3, gamma=1.0,
+                        progress=seen.append)  # fmt: skip
+    # One call per finished episode, counting up; episodes past the asked number may end
+    # in the same round (two copies), and are counted but not kept.
+    assert seen[:3] == [1, 2, 3] and seen == list(range(1, len(seen) + 1))
+    assert len(demos.makespans) == 3
+    lines: list[str] = []
+    report = progress_log("run: teacher", 25, lines.append)
+    for finished in range(1, 28):
+        report(finished)
+    counts = [line.split()[2] for line in lines]
+    assert counts == ["2/25", "4/25", "6/25", "8/25", "10/25", "12/25", "14/25", "16/25",
+                      "18/25", "20/25", "22/25", "24/25", "25/25"]  # fmt: skip
+    assert all(line.startswith("run: teacher: ") and line.endswith(" s)") for line in lines)
 
 
 def test_cloning_makes_the_policy_follow_the_teacher():
