@@ -19,7 +19,7 @@ episode (multicrane bound, CP-SAT) with each row's gap to its mean.
     multicrane evaluate --scenario hall-4c --cranes 4 --decisions task --episodes 50 \\
         --policy runs/hall-s0 runs/hall-s1 runs/hall-s2 prioritized greedy --json ev.json
     multicrane seed-table ev.json --out table.md
-    multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \
+    multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \\
         --policy runs/hall-s0 prioritized --json small.json
     multicrane seed-table small.json --sites set:test-small   # bounds of the set's sites
     multicrane seed-table ev.json --plot table.png

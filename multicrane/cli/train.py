@@ -22,7 +22,7 @@ for cranes (needs the 'train' extra).
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --steps 100000
     multicrane train --scenario set:train --curriculum grow --steps 300000
     multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set --events low
-    multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set \
+    multicrane train --scenario hall-4c --cranes 4 --decisions task --policy set \\
         --imitate lookahead --steps 100000
 
 The run lives in --out (default runs/<name>): config.json, checkpoint/ (every

@@ -8,6 +8,7 @@ from __future__ import annotations
 import gzip
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -176,3 +177,15 @@ def test_replay_record_and_replay(tmp_path, capsys):
     pytest.importorskip("rerun")
     assert main(["replay", "replay", str(js), "--rrd", str(tmp_path / "ep.rrd")]) == 0
     assert (tmp_path / "ep.rrd").stat().st_size > 0
+
+
+def test_help_examples_keep_their_line_breaks():
+    """A help text's example wrapped with a single ``\\`` in the source loses its line break
+    (Python joins the lines): it shows as one line with a run of spaces before an option."""
+    parser = build_parser()
+    choices = parser._subparsers._group_actions[0].choices  # noqa: SLF001
+    joined = re.compile(r"\S {3,}--?\w")
+    for name, sub in choices.items():
+        for text in (sub.description or "", sub.epilog or ""):
+            bad = [line for line in text.splitlines() if joined.search(line.strip())]
+            assert not bad, f"multicrane {name} --help: {bad}"
