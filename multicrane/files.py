@@ -22,6 +22,22 @@ def write_atomic(path: str | Path, data: str | bytes) -> None:
     tmp.replace(path)
 
 
+def write_new_atomic(path: str | Path, data: bytes) -> bool:
+    """Write ``data`` to ``path`` only if no file is there, whole or not at all: a temporary
+    file beside it is linked to the name, which fails when another writer got there first.
+    True when this call wrote the file."""
+    path = Path(path)
+    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}")
+    tmp.write_bytes(data)
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        return False
+    finally:
+        tmp.unlink()
+    return True
+
+
 def write_json_atomic(path: str | Path, obj: Any, indent: int = 1) -> None:
     """``obj`` as JSON (sorted keys are the caller's choice), ending with a newline."""
     write_atomic(path, json.dumps(obj, indent=indent) + "\n")

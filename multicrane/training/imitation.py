@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 import torch as th
 
-from multicrane.files import write_atomic
+from multicrane.files import write_atomic, write_new_atomic
 from multicrane.tasks.book import exclusive_masks, task_list
 from multicrane.training import soft_targets
 
@@ -75,9 +75,10 @@ class DemonstrationsError(ValueError):
 ARRAYS = ("observations", "masks", "actions", "returns")
 
 
-def save(demos: Demonstrations, path: str | Path, meta: dict) -> None:
+def save(demos: Demonstrations, path: str | Path, meta: dict, exclusive: bool = False) -> bool:
     """Write ``demos`` and ``meta`` (what they were made for: teacher, site, reward...) to a
-    compressed ``.npz`` file, atomically."""
+    compressed ``.npz`` file, atomically. ``exclusive``: leave a file already at ``path`` as it
+    is (another run wrote it first). True when this call wrote the file."""
     buffer = io.BytesIO()
     arrays = {name: getattr(demos, name) for name in ARRAYS}
     if demos.values is not None:
@@ -86,7 +87,10 @@ def save(demos: Demonstrations, path: str | Path, meta: dict) -> None:
     np.savez_compressed(buffer, **arrays, makespans=np.array(makespans, dtype=np.int64),
                         meta=np.array(json.dumps(meta, sort_keys=True)))  # fmt: skip
     Path(path).parent.mkdir(parents=True, exist_ok=True)
+    if exclusive:
+        return write_new_atomic(path, buffer.getvalue())
     write_atomic(path, buffer.getvalue())
+    return True
 
 
 def load(path: str | Path, meta: dict) -> Demonstrations:

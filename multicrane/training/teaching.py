@@ -88,8 +88,12 @@ def _first_imitation(cfg, params: dict, policy, make_teacher: Callable, venv, me
         progress = progress_log(f"{cfg.name}: {cfg.imitate}", cfg.imitate_episodes, log)
         demos = demonstrate(venv, make_teacher, cfg.imitate_episodes, params["gamma"],
                             values="values" in meta, progress=progress)  # fmt: skip
-        if path is not None:
-            save(demos, path, meta)
+        if path is not None and not save(demos, path, meta, exclusive=True):
+            # Another run of the same setting wrote the file while this one played: clone
+            # the file's episodes, so that every run that names the file clones the same ones.
+            demos = load(path, meta)
+            log(f"{cfg.name}: {path} was written by another run meanwhile: cloning its "
+                "demonstrations instead of this run's")  # fmt: skip
     collected = time.perf_counter() - start
     history = clone(policy, demos, cfg.imitate_epochs, seed=cfg.seed, soft=cfg.imitate_soft,
                     stop_at=cfg.imitate_stop)

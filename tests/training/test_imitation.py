@@ -3,6 +3,9 @@ and the training run that starts from it."""
 
 from __future__ import annotations
 
+import dataclasses
+import shutil
+
 import numpy as np
 import pytest
 import torch as th
@@ -184,6 +187,37 @@ def test_demonstrations_file_round_trip_and_refusal(tmp_path):
     assert back.makespans == demos.makespans
     with pytest.raises(DemonstrationsError, match="teacher: file 'greedy' != run 'lookahead'"):
         load(path, {**meta, "teacher": "lookahead"})
+    # Exclusive: a file already there (another run's) is left as it is.
+    before = path.read_bytes()
+    assert not save(demonstrate(venv, policies.factory("prioritized"), 2, gamma=0.9), path,
+                    meta, exclusive=True)  # fmt: skip
+    assert path.read_bytes() == before and sorted(path.parent.iterdir()) == [path]
+    assert save(demos, tmp_path / "new.npz", meta, exclusive=True)
+    assert (tmp_path / "new.npz").read_bytes() == before
     (tmp_path / "junk.npz").write_bytes(b"not a zip")
     with pytest.raises(DemonstrationsError, match="junk.npz: not a demonstrations file"):
         load(tmp_path / "junk.npz", meta)
+
+
+def test_a_run_whose_file_appears_meanwhile_clones_the_files_episodes(tmp_path):
+    # Two runs of one setting start at once, both find no file and play the teacher: the
+    # first to finish writes the file; the second leaves it and clones the file's episodes.
+    first, second = tmp_path / "first.npz", tmp_path / "second.npz"
+    quiet = lambda *a: None  # noqa: E731
+    teacher = policies.factory("prioritized")
+    # e3s3 starts at random: the two seeds' teacher episodes differ (rows, makespans).
+    cfg = lambda demos, seed: dataclasses.replace(  # noqa: E731
+        _imitating_cfg(64, demos=str(demos)), scenario="e3s3", seed=seed)
+    ref = train(cfg(first, 1), tmp_path / "ref", teacher=teacher, log=quiet)
+
+    def racing_teacher(*args, **kwargs):  # the other run's file lands while this one plays
+        if not second.exists():
+            shutil.copyfile(first, second)
+        return teacher(*args, **kwargs)
+
+    said: list[str] = []
+    run = train(cfg(second, 0), tmp_path / "run", teacher=racing_teacher, log=said.append)
+    assert second.read_bytes() == first.read_bytes()
+    assert any("written by another run meanwhile" in str(line) for line in said)
+    keys = ("teacher_makespan_mean", "rows", "decision_rows")
+    assert {k: run["imitation"][k] for k in keys} == {k: ref["imitation"][k] for k in keys}
