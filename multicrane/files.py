@@ -10,25 +10,27 @@ from pathlib import Path
 from typing import Any
 
 
-def write_atomic(path: str | Path, data: str | bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path`` (named with this process's id, so two
-    writers never share it), then rename it over ``path``."""
-    path = Path(path)
+def _written_beside(path: Path, data: str | bytes) -> Path:
+    """``data`` in a temporary file beside ``path``, named with this process's id (so two
+    writers never share it)."""
     tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}")
     if isinstance(data, bytes):
         tmp.write_bytes(data)
     else:
         tmp.write_text(data)
-    tmp.replace(path)
+    return tmp
+
+
+def write_atomic(path: str | Path, data: str | bytes) -> None:
+    """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``."""
+    _written_beside(Path(path), data).replace(path)
 
 
 def write_new_atomic(path: str | Path, data: bytes) -> bool:
     """Write ``data`` to ``path`` only if no file is there, whole or not at all: a temporary
     file beside it is linked to the name, which fails when another writer got there first.
     True when this call wrote the file."""
-    path = Path(path)
-    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}")
-    tmp.write_bytes(data)
+    tmp = _written_beside(Path(path), data)
     try:
         os.link(tmp, path)
     except FileExistsError:
