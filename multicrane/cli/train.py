@@ -155,6 +155,9 @@ def _imitation_options(p) -> None:
     p.add_argument("--planner-hint", action="store_true",
                    help="set policy: each task row also shows whether the prioritized planner "
                    "would start it for the crane now (the policy learns where to depart from it)")
+    p.add_argument("--graph-features", action="store_true",
+                   help="set policy: each task row also shows what its target holds up (the "
+                   "longest chain of targets above it and how many depend on it)")
 
 
 def build_config(args: argparse.Namespace):
@@ -217,6 +220,7 @@ def build_config(args: argparse.Namespace):
         keep_best=args.keep_best,
         clone_weight=args.clone_weight,
         planner_hint=args.planner_hint,
+        graph_features=args.graph_features,
         init_from=args.init_from,
         time_limit=args.time_limit,
     )

@@ -5,7 +5,9 @@ Shared by the motion-level planner (``policies.prioritized``), the task-level pl
 read beside its observation (``proposals``, ``multicrane.training.set_obs``). ``rank="list"``
 ranks by the component's place in the scenario's list order, then by the distance from the
 pick-up pose to the target; ``rank="nearest"`` by that distance alone (ties: component,
-target). Each pair in rank order goes to the first idle crane that may take it and is kept
+target); ``rank="chain"`` first by the target's chain, longest first (the most targets standing
+on it one above the other, ``multicrane.tasks.support_graph``: a critical-path rule), then as
+``"list"``. Each pair in rank order goes to the first idle crane that may take it and is kept
 when the carrier's space-time search succeeds, at most ``max_searches`` searches per round.
 """
 
@@ -18,6 +20,9 @@ import numpy as np
 from multicrane.sim.simulator import NOBODY, Simulator
 from multicrane.tasks.book import TaskBook
 from multicrane.tasks.carrier import Carrier
+from multicrane.tasks.support_graph import site_chains
+
+RANKS = ("list", "nearest", "chain")
 
 
 def list_ranks(scenario) -> dict[int, int]:
@@ -29,7 +34,8 @@ def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_
     """Ready (component, target) pairs, best first: ``(distance, comp, target)`` tuples over
     each candidate's ready compatible targets not in ``taken`` that a pose of its shape
     covers (``Carrier.pair_distances``: from the pick-up pose to the target's pose); ranked
-    by (list rank, distance, target) or (distance, component, target)."""
+    by (list rank, distance, target), (distance, component, target) or (longest chain,
+    list rank, distance, target)."""
     if not candidates:
         return []
     comps = np.asarray(candidates, dtype=np.int64)
@@ -38,8 +44,11 @@ def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_
     open_[list(taken)] = False
     rows, targets = np.nonzero((dist >= 0) & open_)
     comp, d = comps[rows], dist[rows, targets]
-    if rank == "list":
-        order = np.lexsort((targets, d, np.array([list_rank[c] for c in comp.tolist()])))
+    if rank in ("list", "chain"):
+        keys = [targets, d, np.array([list_rank[c] for c in comp.tolist()], dtype=np.int64)]
+        if rank == "chain":
+            keys.append(-site_chains(carrier.sim.site)[0][targets])
+        order = np.lexsort(keys)
     else:
         order = np.lexsort((targets, comp, d))
     ranked = (d[order].tolist(), comp[order].tolist(), targets[order].tolist())
@@ -47,8 +56,8 @@ def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_
 
 
 def check_rank(rank: str) -> str:
-    if rank not in ("list", "nearest"):
-        raise ValueError(f"rank must be 'list' or 'nearest', got {rank!r}")
+    if rank not in RANKS:
+        raise ValueError(f"rank must be one of {', '.join(RANKS)}, got {rank!r}")
     return rank
 
 

@@ -88,6 +88,8 @@ class TrainConfig:
     imitated policy (``multicrane.training.clone_term``; 0: none). ``planner_hint`` (set
     policy): each task row also shows whether the prioritized planner would start it for the
     observing crane now (``multicrane.training.set_obs``, the ``proposed`` column).
+    ``graph_features`` (set policy): each task row also shows what its target holds up (the
+    ``chain`` and ``dependents`` columns of ``multicrane.training.set_obs``).
     ``init_from``: a finished run directory whose policy weights the fresh run starts from
     (``multicrane.training.warm_start``; same algorithm, policy kind and network); with
     ``imitate`` it skips the first imitation and runs only the rounds (``dagger``,
@@ -135,6 +137,7 @@ class TrainConfig:
     keep_best: bool = False
     clone_weight: float = 0.0
     planner_hint: bool = False
+    graph_features: bool = False
     init_from: str | None = None
     time_limit: float | None = None
 
@@ -221,14 +224,16 @@ class TrainConfig:
             raise ConfigError(f"workers={self.workers!r}: must be a positive integer")
         if self.policy == "mlp" and self.workers != 1:
             raise ConfigError(f"workers={self.workers!r}: needs policy='set'")
-        if not isinstance(self.planner_hint, bool):
-            raise ConfigError(f"planner_hint={self.planner_hint!r}: must be true or false")
+        for name in ("planner_hint", "graph_features"):
+            if not isinstance(getattr(self, name), bool):
+                raise ConfigError(f"{name}={getattr(self, name)!r}: must be true or false")
         if self.policy == "mlp":
             for name in ("set_limits", "curriculum"):
                 if getattr(self, name) is not None:
                     raise ConfigError(f"{name}={getattr(self, name)!r}: needs policy='set'")
-            if self.planner_hint:
-                raise ConfigError("planner_hint=True: needs policy='set'")
+            for name in ("planner_hint", "graph_features"):
+                if getattr(self, name):
+                    raise ConfigError(f"{name}=True: needs policy='set'")
             return
         task = decision_mode(self.decisions).task_level
         if self.paper or not task or self.algo != "maskable_ppo":

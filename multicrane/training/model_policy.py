@@ -188,7 +188,8 @@ class SetModelPolicy(SharedModelPolicy):
         if not limits.fits(env.observation_layout):
             if env.observation_layout.events is not None and not limits.events:
                 limits.check(env.observation_layout, env.scenario.name)  # names the option
-            limits = union([env.observation_layout, _Layout(**limits.to_dict())], limits.hint)
+            limits = union([env.observation_layout, _Layout(**limits.to_dict())], limits.hint,
+                           limits.graph)  # fmt: skip
         self.actor = SetActor(model.policy, limits)
         self.padder = Padder(env.observation_layout, self.actor.limits, env)
 
@@ -211,7 +212,7 @@ class _Layout:
     """Table sizes in ``TaskLayout``'s attribute names (for ``set_obs.union``)."""
 
     def __init__(self, components: int, cranes: int, tasks: int, events: bool = False,
-                 hint: bool = False):  # fmt: skip
+                 hint: bool = False, graph: bool = False):  # fmt: skip
         self.n_components, self.n_cranes, self.n_tasks = components, cranes, tasks
         self.events = (1, 1) if events else None  # only whether it is there matters
 

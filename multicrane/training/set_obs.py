@@ -28,6 +28,14 @@ observing crane in this round (``multicrane.tasks.priority_rule.proposals``, a d
 changes nothing), 0 elsewhere (all 0: the planner would have the crane wait). The policy then
 learns when and where to depart from the planner rather than the planner itself; the padder
 needs the environment to ask it (``Padder(..., env=env)``).
+
+With the support graph (``SetLimits.graph``, ``multicrane train --graph-features``) each task
+row gains two last columns (after ``proposed`` if both): ``chain``, the longest chain of
+targets standing on the task's target divided by the site's longest, and ``dependents``, the
+targets that need it assembled first, directly or not, divided by the site's targets less one
+(``multicrane.tasks.support_graph``; 0 and 0 for a target nothing waits on). The flat
+observation shows the supports only as coordinates; these say what a target holds up, which
+is what critical-path rules rank by. The padder reads them from the environment's site.
 """
 
 from __future__ import annotations
@@ -44,11 +52,13 @@ from multicrane.envs.task_observation import (
 )
 from multicrane.sim.simulator import NOBODY
 from multicrane.tasks.priority_rule import list_ranks, proposals
+from multicrane.tasks.support_graph import support_chains
 
 N_COMP = len(COMPONENT_FEATURES)
 N_CRANE = len(CRANE_FEATURES)
 N_TASK = len(TASK_FEATURES)
 HEADER = 3
+GRAPH_FEATURES = ("chain", "dependents")
 
 
 @dataclass(frozen=True)
@@ -60,16 +70,17 @@ class SetLimits:
     tasks: int
     events: bool = False  # the delivered / available columns of sites with events
     hint: bool = False  # the tasks' ``proposed`` column (the planner's choice; module doc)
+    graph: bool = False  # the tasks' ``chain`` and ``dependents`` columns (module doc)
 
     def __post_init__(self) -> None:
         for name in ("components", "cranes", "tasks"):
             value = getattr(self, name)
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                 raise ValueError(f"SetLimits.{name}={value!r}: must be a positive integer")
-        if not isinstance(self.events, bool):
-            raise ValueError(f"SetLimits.events={self.events!r}: must be True or False")
-        if not isinstance(self.hint, bool):
-            raise ValueError(f"SetLimits.hint={self.hint!r}: must be True or False")
+        for name in ("events", "hint", "graph"):
+            value = getattr(self, name)
+            if not isinstance(value, bool):
+                raise ValueError(f"SetLimits.{name}={value!r}: must be True or False")
 
     @classmethod
     def of(cls, layout: TaskLayout) -> SetLimits:
@@ -114,7 +125,7 @@ class SetLimits:
 
     @property
     def task_width(self) -> int:
-        return N_TASK + self.hint
+        return N_TASK + self.hint + len(GRAPH_FEATURES) * self.graph
 
     @property
     def size(self) -> int:
@@ -143,10 +154,10 @@ class SetLimits:
         return out
 
     def to_dict(self) -> dict[str, int]:
-        """The sizes (and ``events: True`` or ``hint: True`` only when on, so limits without
-        them keep the dict of older runs)."""
+        """The sizes (and ``events``, ``hint`` or ``graph: True`` only when on, so limits
+        without them keep the dict of older runs)."""
         out = {"components": self.components, "cranes": self.cranes, "tasks": self.tasks}
-        for name in ("events", "hint"):
+        for name in ("events", "hint", "graph"):
             if getattr(self, name):
                 out[name] = True
         return out
@@ -156,9 +167,9 @@ def _has_events(layout) -> bool:
     return getattr(layout, "events", None) is not None
 
 
-def union(layouts, hint: bool = False) -> SetLimits:
+def union(layouts, hint: bool = False, graph: bool = False) -> SetLimits:
     """The smallest limits that fit every one of ``layouts`` (with event columns if any has
-    them; with the hint column if ``hint``)."""
+    them; with the hint column if ``hint``, the support graph's if ``graph``)."""
     layouts = list(layouts)
     if not layouts:
         raise ValueError("union of no layouts")
@@ -168,18 +179,21 @@ def union(layouts, hint: bool = False) -> SetLimits:
         max(x.n_tasks for x in layouts),
         any(_has_events(x) for x in layouts),
         hint,
+        graph,
     )
 
 
 class Padder:
     """Pads the flat task observations of one site (``layout``) to ``limits``; with the hint
     column, ``env`` (the site's task-mode ``MultiCraneEnv``) is asked for the planner's
-    proposals (``proposals()``, then each crane's ``pad(..., proposed=p)``)."""
+    proposals (``proposals()``, then each crane's ``pad(..., proposed=p)``); with the support
+    graph's columns, its site is read once."""
 
     def __init__(self, layout: TaskLayout, limits: SetLimits, env=None):
         limits.check(layout)
-        if limits.hint and env is None:
-            raise ValueError("set limits with the planner's hint need the environment: "
+        if (limits.hint or limits.graph) and env is None:
+            what = "the planner's hint" if limits.hint else "the support graph's columns"
+            raise ValueError(f"set limits with {what} need the environment: "
                              "Padder(layout, limits, env=env)")  # fmt: skip
         env = getattr(env, "unwrapped", env)
         self.layout, self.limits, self.env = layout, limits, env
@@ -187,7 +201,7 @@ class Padder:
             self._list_rank = list_ranks(env.scenario)
         C, N, P = layout.n_components, layout.n_cranes, layout.n_tasks
         ev = _has_events(layout)
-        self.exact = SetLimits.of(layout) == limits and not ev and not limits.hint
+        self.exact = SetLimits.of(layout) == limits and not ev
         # Index map: destination positions of the source vector's entries, built once.
         sl = limits.slices()
         c0, cw = sl["components"][0], limits.comp_width
@@ -209,6 +223,7 @@ class Padder:
                 [rows[:, 0] + cw - 1, k0 + np.arange(N) * kw + kw - 1]
             ).astype(np.int64)
         self.header = np.array([C, N, P], dtype=np.float32)
+        self.graph_at, self.graph = _graph_columns(env, limits, t0, tw, P)
 
     def proposals(self) -> list[int]:
         """Per crane, the task the prioritized planner would start for it now (``NOBODY``:
@@ -234,6 +249,7 @@ class Padder:
             out[self.ones] = 1.0
         if proposed != NOBODY:
             out[self.hint_at[proposed]] = 1.0
+        out[self.graph_at] = self.graph
         return out
 
     def pad_mask(self, mask: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -244,3 +260,18 @@ class Padder:
             out[:] = False
         out[: len(mask)] = mask
         return out
+
+
+def _graph_columns(env, limits: SetLimits, t0: int, tw: int, P: int):
+    """``(positions, values)`` of the support graph's task columns in the padded vector
+    (empty without them): each task's target's ``chain`` and ``dependents`` (module doc)."""
+    if not limits.graph:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float32)
+    site = env.sim.site
+    chain, dependents = support_chains(site.target_supports)
+    per_target = np.stack([chain / max(int(chain.max()), 1),
+                           dependents / max(len(dependents) - 1, 1)], axis=1)  # fmt: skip
+    targets = np.array([t for _, t in env.mode.task_book().tasks.pairs], dtype=np.int64)
+    first = t0 + N_TASK + limits.hint
+    at = first + np.arange(P)[:, None] * tw + np.arange(len(GRAPH_FEATURES))[None, :]
+    return at.ravel(), per_target[targets].astype(np.float32).ravel()

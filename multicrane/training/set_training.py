@@ -53,8 +53,10 @@ def set_hyperparameters(overrides: dict[str, Any]) -> dict[str, Any]:
 
 def limits_of(cfg) -> SetLimits:
     """The padded table sizes of a run: ``set_limits``, the curriculum's, or the scenario's;
-    with the planner's hint column when ``planner_hint``."""
-    return dataclasses.replace(_sizes_of(cfg), hint=bool(cfg.planner_hint))
+    with the planner's hint column when ``planner_hint``, the support graph's columns when
+    ``graph_features``."""
+    return dataclasses.replace(_sizes_of(cfg), hint=bool(cfg.planner_hint),
+                               graph=bool(cfg.graph_features))  # fmt: skip
 
 
 def _sizes_of(cfg) -> SetLimits:

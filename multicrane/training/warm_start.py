@@ -4,8 +4,8 @@
 run's model takes that policy's weights (its optimizer starts afresh) before the teaching
 step and PPO: fine-tuning a trained policy, or expert iteration over a policy that PPO
 improved (``multicrane.training.teaching`` then skips the first imitation). Both runs must
-have the same algorithm, policy kind and network (for a set policy: the same planner hint
-and ``policy_kwargs``; the limits may differ, the set network does not depend on the table
+have the same algorithm, policy kind and network (for a set policy: the same planner hint, graph
+features and ``policy_kwargs``; the limits may differ, the set network does not depend on the table
 sizes); anything else is refused by name, as is a directory without a finished model.
 """
 
@@ -40,7 +40,7 @@ def warm_start(model, cfg, log=print) -> dict:
         first = str(exc).strip().splitlines()[0]
         raise ConfigError(
             f"{where}: its network does not fit this run's ({first}); train with the same "
-            "planner hint and policy_kwargs"
+            "planner hint, graph features and policy_kwargs"
         ) from None
     digest = weights_digest(model.policy)
     log(f"{cfg.name}: starts from the policy of {cfg.init_from} (weights {digest[:12]})")

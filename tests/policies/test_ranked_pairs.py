@@ -1,5 +1,5 @@
 """``ranked_pairs`` (numpy, from the carrier's per-episode distance table) against the loop it
-replaced: the same pairs in the same order, on states drawn at random, for both ranks."""
+replaced: the same pairs in the same order, on states drawn at random, for every rank."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 import multicrane
 from multicrane.episodes.random_actions import random_legal_action
 from multicrane.tasks.reservations import goal_position, manhattan
+from multicrane.tasks.support_graph import support_chains
 from policies.prioritized import ranked_pairs
 
 
@@ -28,6 +29,9 @@ def reference_pairs(sim, candidates, taken, rank, list_rank):
                 pairs.append((manhattan(here, sim.site.cell(goal)), comp, t))
     if rank == "list":
         pairs.sort(key=lambda p: (list_rank[p[1]], p[0], p[2]))
+    elif rank == "chain":
+        chain, _ = support_chains(sim.site.target_supports)
+        pairs.sort(key=lambda p: (-chain[p[2]], list_rank[p[1]], p[0], p[2]))
     else:
         pairs.sort()
     return pairs
@@ -52,7 +56,7 @@ def test_ranked_pairs_are_the_reference(site, seed, rounds, data):
         candidates = sim.claimable_components()
         taken = set(data.draw(st.lists(st.integers(0, len(sim.site.target_cells) - 1),
                                        max_size=3)))  # fmt: skip
-        for rank in ("list", "nearest"):
+        for rank in ("list", "nearest", "chain"):
             expected = reference_pairs(sim, candidates, taken, rank, list_rank)
             assert ranked_pairs(carrier, candidates, taken, rank, list_rank) == expected
         actions = {}

@@ -85,6 +85,9 @@ def test_a_run_that_does_not_fit_is_refused_by_name(source, tmp_path):
     hinted = _cfg(init_from=str(source), planner_hint=True)  # one more weight, the hint's
     with pytest.raises(ConfigError, match="init_from=.*does not fit this run's"):
         train(hinted, tmp_path / "hinted", **QUIET)
+    graph = _cfg(init_from=str(source), graph_features=True)  # a wider task row
+    with pytest.raises(ConfigError, match="does not fit.*planner hint, graph features"):
+        train(graph, tmp_path / "graph", **QUIET)
     with pytest.raises(ConfigError, match="init_from=.*no such run directory"):
         train(_cfg(init_from=str(tmp_path / "nowhere")), tmp_path / "none", **QUIET)
     (tmp_path / "empty").mkdir()
