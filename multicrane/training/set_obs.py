@@ -52,7 +52,7 @@ from multicrane.envs.task_observation import (
 )
 from multicrane.sim.simulator import NOBODY
 from multicrane.tasks.priority_rule import list_ranks, proposals
-from multicrane.tasks.support_graph import support_chains
+from multicrane.tasks.support_graph import site_chains
 
 N_COMP = len(COMPONENT_FEATURES)
 N_CRANE = len(CRANE_FEATURES)
@@ -268,8 +268,8 @@ def _graph_columns(env, limits: SetLimits, t0: int, tw: int, P: int):
     if not limits.graph:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float32)
     site = env.sim.site
-    chain, dependents = support_chains(site.target_supports)
-    per_target = np.stack([chain / max(int(chain.max()), 1),
+    chain, dependents = site_chains(site)
+    per_target = np.stack([chain / max(int(chain.max(initial=0)), 1),
                            dependents / max(len(dependents) - 1, 1)], axis=1)  # fmt: skip
     targets = np.array([t for _, t in env.mode.task_book().tasks.pairs], dtype=np.int64)
     first = t0 + N_TASK + limits.hint

@@ -44,3 +44,17 @@ def test_the_chain_rank_plans_otherwise_where_the_list_order_is_not_the_chain_or
         assert env.sim.done
         differ += by_list[1] != by_chain[1]
     assert differ >= 2
+
+
+def test_both_decision_levels_play_the_chain_rank_to_the_same_makespan():
+    """The motion-level planner and the task-level one share the rule, as with the list
+    rank: the same makespan on generated sites where the two ranks differ."""
+    from multicrane.episodes.rollout import run_episode
+
+    for _, scenario in resolve_set("set:test-small")[:3]:
+        spans = []
+        for decisions in ("motion", "task"):
+            env = MultiCraneEnv(scenario, decisions=decisions)
+            planner = policies.make("prioritized:rank=chain", env, seed=0)
+            spans.append(run_episode(env, planner, seed=3)["makespan"])
+        assert spans[0] == spans[1], (scenario.name, spans)
