@@ -123,6 +123,19 @@ def play_legal(env, policy, seed: int, steps: int, label: str) -> None:
         obs, *_ = env.step(acts)
 
 
+def cloned_set_run(scenario: str, n_cranes: int, **options):
+    """A ``TrainConfig`` of a set policy cloned from two prioritized episodes on a site, with
+    no PPO (learning rate 0): the short run the set observation's option tests train."""
+    from multicrane.training import TrainConfig
+
+    return TrainConfig(scenario, paper=False, n_cranes=n_cranes, decisions="task",
+                       algo="maskable_ppo", policy="set", imitate="prioritized",
+                       imitate_episodes=2, reward="makespan", shaping=0.0, total_steps=64,
+                       n_envs=2, eval_every=0, eval_episodes=1, checkpoint_every=0,
+                       hyperparams={"n_steps": 32, "batch_size": 32, "learning_rate": 0.0},
+                       **options)  # fmt: skip
+
+
 def load_tool(name: str):
     """The module of ``tools/NAME.py`` (developer programs are scripts, not a package)."""
     import importlib.util

@@ -1,5 +1,6 @@
 """The support graph's columns in the set observation (``SetLimits.graph``,
-``--graph-features``): their values, their place beside the hint, and a run that keeps them."""
+``--graph-features``): their values, their place beside the hint, and a run that keeps them;
+and the checks both options of the set observation (this and the planner's hint) share."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import pytest
 pytest.importorskip("sb3_contrib")
 
 import torch as th  # noqa: E402
+from conftest import cloned_set_run  # noqa: E402
 
 import policies  # noqa: E402
 from multicrane.envs.crane_env import MultiCraneEnv  # noqa: E402
@@ -67,33 +69,34 @@ def test_the_graph_columns_show_each_tasks_target_and_leave_the_rest(name, crane
             break
 
 
-def test_graph_limits_need_the_environment_and_a_set_policy():
+@pytest.mark.parametrize(("flag", "option", "what"), [
+    ("hint", "planner_hint", "the planner's hint"),
+    ("graph", "graph_features", "the support graph's columns"),
+])  # fmt: skip
+def test_the_set_options_need_the_environment_and_a_set_policy(flag, option, what):
+    """Both options of the set observation: refused without the environment, as non-bools,
+    without a set policy; on in the run's limits, its saved dict and the task row's width."""
     env = _env()
-    with pytest.raises(ValueError, match="the support graph's columns need the environment"):
-        Padder(env.observation_layout, SetLimits(29, 4, 289, graph=True))
-    with pytest.raises(ValueError, match="graph=1"):
-        SetLimits(29, 4, 289, graph=1)
-    with pytest.raises(ConfigError, match="graph_features=True: needs policy='set'"):
-        TrainConfig("hall-4c", paper=False, n_cranes=4, graph_features=True)
-    with pytest.raises(ConfigError, match="graph_features='yes': must be true or false"):
-        TrainConfig("hall-4c", paper=False, n_cranes=4, graph_features="yes")
+    with pytest.raises(ValueError, match=f"{what} need the environment"):
+        Padder(env.observation_layout, SetLimits(29, 4, 289, **{flag: True}))
+    with pytest.raises(ValueError, match=f"{flag}=1"):
+        SetLimits(29, 4, 289, **{flag: 1})
+    with pytest.raises(ConfigError, match=f"{option}=True: needs policy='set'"):
+        TrainConfig("hall-4c", paper=False, n_cranes=4, **{option: True})
+    with pytest.raises(ConfigError, match=f"{option}='yes': must be true or false"):
+        TrainConfig("hall-4c", paper=False, n_cranes=4, **{option: "yes"})
     cfg = TrainConfig("hall-4c", paper=False, n_cranes=4, decisions="task",
-                      algo="maskable_ppo", policy="set", graph_features=True)  # fmt: skip
-    assert limits_of(cfg) == SetLimits(29, 4, 289, graph=True)
+                      algo="maskable_ppo", policy="set", **{option: True})  # fmt: skip
+    assert limits_of(cfg) == SetLimits(29, 4, 289, **{flag: True})
     assert limits_of(cfg).to_dict() == {"components": 29, "cranes": 4, "tasks": 289,
-                                        "graph": True}  # fmt: skip
-    assert SetLimits(29, 4, 289, graph=True).task_width == N_TASK + 2
+                                        flag: True}  # fmt: skip
+    assert limits_of(cfg).task_width == N_TASK + {"hint": 1, "graph": 2}[flag]
 
 
 def test_a_run_with_the_graph_columns_keeps_them_and_plays_bigger_sites(tmp_path):
     """A short imitation run on e3s2: the saved model reads the columns again when loaded,
     on its own site and, resized, on a bigger one."""
-    cfg = TrainConfig("e3s2", paper=False, n_cranes=2, decisions="task", algo="maskable_ppo",
-                      policy="set", graph_features=True, imitate="prioritized",
-                      imitate_episodes=2, imitate_epochs=2, reward="makespan", shaping=0.0,
-                      total_steps=64, n_envs=2, eval_every=0, eval_episodes=1,
-                      checkpoint_every=0, hyperparams={"n_steps": 32, "batch_size": 32,
-                                                       "learning_rate": 0.0})  # fmt: skip
+    cfg = cloned_set_run("e3s2", 2, graph_features=True, imitate_epochs=2)
     out = tmp_path / "run"
     train(cfg, out, teacher=policies.factory("prioritized"), log=lambda *a: None)
     model, loaded = load_run(out)

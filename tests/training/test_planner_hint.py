@@ -9,15 +9,15 @@ import pytest
 pytest.importorskip("sb3_contrib")
 
 import torch as th  # noqa: E402
+from conftest import cloned_set_run  # noqa: E402
 
 import policies  # noqa: E402
 from multicrane.envs.crane_env import MultiCraneEnv  # noqa: E402
 from multicrane.sim.simulator import NOBODY  # noqa: E402
-from multicrane.training import TrainConfig, train  # noqa: E402
-from multicrane.training.config import ConfigError  # noqa: E402
+from multicrane.training import train  # noqa: E402
 from multicrane.training.model_policy import SetModelPolicy, load_run  # noqa: E402
 from multicrane.training.set_obs import N_TASK, Padder, SetLimits  # noqa: E402
-from multicrane.training.set_training import limits_of, make_set_model, set_hyperparameters  # noqa: E402
+from multicrane.training.set_training import make_set_model, set_hyperparameters  # noqa: E402
 from multicrane.training.set_vec_env import SetVecEnv  # noqa: E402
 from policies.task_planners import TaskPrioritized  # noqa: E402
 
@@ -67,21 +67,6 @@ def test_the_hint_column_marks_the_planners_task_and_nothing_else():
     assert marked >= 4
 
 
-def test_hint_limits_need_the_environment_and_a_set_policy():
-    env = _env()
-    with pytest.raises(ValueError, match="need the environment"):
-        Padder(env.observation_layout, SetLimits(29, 4, 289, hint=True))
-    with pytest.raises(ValueError, match="hint=1"):
-        SetLimits(29, 4, 289, hint=1)
-    with pytest.raises(ConfigError, match="planner_hint=True: needs policy='set'"):
-        TrainConfig("hall-4c", paper=False, n_cranes=4, planner_hint=True)
-    cfg = TrainConfig("hall-4c", paper=False, n_cranes=4, decisions="task",
-                      algo="maskable_ppo", policy="set", planner_hint=True)  # fmt: skip
-    assert limits_of(cfg) == SetLimits(29, 4, 289, hint=True)
-    assert limits_of(cfg).to_dict() == {"components": 29, "cranes": 4, "tasks": 289,
-                                        "hint": True}  # fmt: skip
-
-
 def test_a_network_that_trusts_the_hint_plays_the_planners_episode():
     """With large hint weights, the untrained network's greedy choice is the planner's."""
     env = _env("hall-4c", 3)
@@ -101,12 +86,7 @@ def test_a_network_that_trusts_the_hint_plays_the_planners_episode():
 def test_imitating_the_planner_with_its_hint_reproduces_it(tmp_path):
     """Two episodes of the prioritized planner and a few epochs: the policy plays the
     planner's episodes on held-out seeds, and the run's saved model keeps the hint."""
-    cfg = TrainConfig("e3s2", paper=False, n_cranes=2, decisions="task", algo="maskable_ppo",
-                      policy="set", planner_hint=True, imitate="prioritized",
-                      imitate_episodes=2, imitate_epochs=4, reward="makespan", shaping=0.0,
-                      total_steps=64, n_envs=2, eval_every=0, eval_episodes=1,
-                      checkpoint_every=0, hyperparams={"n_steps": 32, "batch_size": 32,
-                                                       "learning_rate": 0.0})  # fmt: skip
+    cfg = cloned_set_run("e3s2", 2, planner_hint=True, imitate_epochs=4)
     out = tmp_path / "run"
     train(cfg, out, teacher=policies.factory("prioritized"), log=lambda *a: None)
     model, loaded = load_run(out)
