@@ -43,14 +43,14 @@ a plan) are ranked and taken greedily: for each pair in rank order, the first id
 that can carry it (its reach holds the pick-up pose and the target; every crane without
 reach) tries it, and keeps it when the carrier's search succeeds (at most ``max_searches``
 searches per decision; components in transit keep the priority of their earlier plans;
-newer ones plan around them). ``rank="list"`` (default) ranks by the component's place in the
-scenario's list order (a buildable order, columns before the beams they carry), then by the
-Manhattan distance from the pick-up pose to the target; ``rank="nearest"`` by that distance alone;
-``rank="chain"`` first by the target's chain (the most targets standing on it one above the other,
-longest first: a critical-path rule), then as ``"list"``. Building in list order leaves fewer
-finished components in the way of later paths: over the shipped scenarios with 1-4 cranes (5 seeds)
-it gave makespans about 3 % shorter on average than nearest-first (up to 19 %: e4s3 with 3 cranes;
-12 % on hall-4c with 4).
+newer ones plan around them). ``rank="list"`` (default) ranks by the component's place in
+the scenario's list order (a buildable order, columns before the beams they carry), then by
+the Manhattan distance from the pick-up pose to the target; ``rank="nearest"`` by that
+distance alone; ``rank="chain"`` first by the target's chain (the most targets standing on
+it one above the other, longest first: a critical-path rule), then as ``"list"``. Building
+in list order leaves fewer finished components in the way of later paths: over the shipped
+scenarios with 1-4 cranes (5 seeds) it gave makespans about 3 % shorter on average than
+nearest-first (up to 19 %: e4s3 with 3 cranes; 12 % on hall-4c with 4).
 """
 
 from __future__ import annotations
@@ -64,12 +64,13 @@ class PrioritizedPlanner:
     """Drive a ``MultiCraneEnv`` (default mode, any number of cranes) by prioritized planning.
 
     ``seed`` is accepted for the same signature as ``GreedyPolicy``; the planner itself is
-    deterministic. ``slack``: how many steps past the shortest path length a search may run (waiting
-    for other components); ``max_expansions``: A* states expanded per search at most;
-    ``max_searches``: new-claim searches per decision at most; ``rank``: ``"list"``, ``"nearest"``
-    or ``"chain"`` (how ready components are chosen, see above). ``stats`` (the carrier's) counts
-    searches, failures, expansions, claims, full replans, path repairs and fallbacks (a planned
-    action the mask did not allow: the crane waits and everything is replanned; should stay 0).
+    deterministic. ``slack``: how many steps past the shortest path length a search may run
+    (waiting for other components); ``max_expansions``: A* states expanded per search at
+    most; ``max_searches``: new-claim searches per decision at most; ``rank``: ``"list"``,
+    ``"nearest"`` or ``"chain"`` (how ready components are chosen, see above). ``stats``
+    (the carrier's) counts searches, failures, expansions, claims, full replans, path
+    repairs and fallbacks (a planned action the mask did not allow: the crane waits and
+    everything is replanned; should stay 0).
     """
 
     def __init__(

@@ -5,10 +5,10 @@ continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
 
 - ``TaskPrioritized``: the prioritized planner's rule (``policies.prioritized``): ready pairs
   ranked by list order then distance (or distance alone, or the target's chain first:
-  ``rank=``); for each pair in that order the
-  first idle crane allowed to take it asks ``env.task_feasible(crane, p)`` (the carrier's
-  space-time search, kept for the step if the crane then chooses it), at most
-  ``max_searches`` searches per decision. It gives the motion-mode planner's makespans.
+  ``rank=``); for each pair in that order the first idle crane allowed to take it asks
+  ``env.task_feasible(crane, p)`` (the carrier's space-time search, kept for the step if the
+  crane then chooses it), at most ``max_searches`` searches per decision. It gives the
+  motion-mode planner's makespans.
 - ``TaskGreedy``: each idle crane, in crane order, takes the allowed task with the shortest
   static path (ties: the lower task number), without a search (a blocked task is held and
   retried by the environment).

@@ -249,7 +249,8 @@ class Padder:
             out[self.ones] = 1.0
         if proposed != NOBODY:
             out[self.hint_at[proposed]] = 1.0
-        out[self.graph_at] = self.graph
+        if self.limits.graph:
+            out[self.graph_at] = self.graph
         return out
 
     def pad_mask(self, mask: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:

@@ -4,9 +4,10 @@
 run's model takes that policy's weights (its optimizer starts afresh) before the teaching
 step and PPO: fine-tuning a trained policy, or expert iteration over a policy that PPO
 improved (``multicrane.training.teaching`` then skips the first imitation). Both runs must
-have the same algorithm, policy kind and network (for a set policy: the same planner hint, graph
-features and ``policy_kwargs``; the limits may differ, the set network does not depend on the table
-sizes); anything else is refused by name, as is a directory without a finished model.
+have the same algorithm, policy kind and network (for a set policy: the same planner hint,
+graph features and ``policy_kwargs``; the limits may differ, the set network does not depend
+on the table sizes); anything else is refused by name, as is a directory without a finished
+model.
 """
 
 from __future__ import annotations
