@@ -8,7 +8,9 @@ continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
   ``rank=``); for each pair in that order the first idle crane allowed to take it asks
   ``env.task_feasible(crane, p)`` (the carrier's space-time search, kept for the step if the
   crane then chooses it), at most ``max_searches`` searches per decision. It gives the
-  motion-mode planner's makespans.
+  motion-mode planner's makespans. ``order``: a list order of its own (every component index
+  once) in place of the scenario's, e.g. a sequence planned elsewhere (``tools/order_probe.py``
+  replays the order another planner started the components in).
 - ``TaskGreedy``: each idle crane, in crane order, takes the allowed task with the shortest
   static path (ties: the lower task number), without a search (a blocked task is held and
   retried by the environment).
@@ -36,12 +38,12 @@ def _book(env):
 class TaskPrioritized:
     """The prioritized rule over tasks (see the module doc); ``stats`` are the carrier's."""
 
-    def __init__(self, env, seed=None, max_searches: int = 8, rank: str = "list"):
+    def __init__(self, env, seed=None, max_searches: int = 8, rank: str = "list", order=None):
         self.env, _ = _book(env)
         self.seed = seed
         self.max_searches = max_searches
         self.rank = check_rank(rank)
-        self._list_rank = list_ranks(self.env.scenario)
+        self._list_rank = list_ranks(self.env.scenario, order)
 
     @property
     def stats(self) -> dict:

@@ -25,9 +25,20 @@ from multicrane.tasks.support_graph import site_chains
 RANKS = ("list", "nearest", "chain")
 
 
-def list_ranks(scenario) -> dict[int, int]:
-    """Component -> its place in the scenario's list order (the rule's ``list_rank``)."""
-    return {c: i for i, c in enumerate(scenario.order)}
+def list_ranks(scenario, order=None) -> dict[int, int]:
+    """Component -> its place in the list order (the rule's ``list_rank``): the scenario's,
+    or ``order``, every component index once (e.g. an assembly sequence planned elsewhere;
+    the scenario's own order also draws the yard, so a new sequence goes here, not there)."""
+    if order is None:
+        return {c: i for i, c in enumerate(scenario.order)}
+    listed = [int(c) for c in order]
+    n = scenario.n_components
+    if sorted(listed) != list(range(n)):
+        missing = sorted(set(range(n)) - set(listed))
+        extra = sorted({c for c in listed if not 0 <= c < n or listed.count(c) > 1})
+        raise ValueError(f"order must list every component index 0..{n - 1} once: "
+                         f"missing {missing}, out of range or repeated {extra}")  # fmt: skip
+    return {c: i for i, c in enumerate(listed)}
 
 
 def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
