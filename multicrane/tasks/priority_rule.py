@@ -13,6 +13,7 @@ when the carrier's space-time search succeeds, at most ``max_searches`` searches
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Callable
 
 import numpy as np
@@ -31,6 +32,9 @@ def list_ranks(scenario, order=None) -> dict[int, int]:
     the scenario's own order also draws the yard, so a new sequence goes here, not there)."""
     if order is None:
         return {c: i for i, c in enumerate(scenario.order)}
+    odd = [c for c in order if not isinstance(c, numbers.Integral) or isinstance(c, bool)]
+    if odd:
+        raise ValueError(f"order must list component indices (integers), got {odd[:5]}")
     listed = [int(c) for c in order]
     n = scenario.n_components
     if sorted(listed) != list(range(n)):

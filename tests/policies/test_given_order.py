@@ -42,11 +42,13 @@ def test_another_order_changes_which_component_starts_first():
     ([0, 1, 2], "missing"),
     (list(range(28)) + [0], "missing [28], out of range or repeated [0]"),
     (list(range(28)) + [99], "missing [28], out of range or repeated [99]"),
+    ([*range(28), 28.0], "indices (integers), got [28.0]"),
+    ([*range(28), True], "indices (integers), got [True]"),
 ])  # fmt: skip
 def test_a_bad_order_is_refused_by_name(order, words):
     scenario = multicrane.parallel_env("hall-4c", decisions="task").unwrapped.scenario
     assert scenario.n_components == 29
-    with pytest.raises(ValueError, match="order must list every component") as err:
+    with pytest.raises(ValueError, match="order must list") as err:
         list_ranks(scenario, order)
     assert words in str(err.value)
 
