@@ -38,7 +38,7 @@ from multicrane.tasks.support_graph import site_chains
 from policies.task_planners import TaskPrioritized
 
 sys.path.insert(0, str(Path(__file__).parent))  # tools/ is not a package
-from order_probe import start_order  # noqa: E402
+from order_probe import classes, start_order  # noqa: E402
 
 
 def component_features(env) -> np.ndarray:
@@ -59,12 +59,10 @@ def component_features(env) -> np.ndarray:
             cells.setdefault(t, []).append(site.cell(cell))
     centre = np.array([np.mean(cells[t], axis=0) / size for t in range(n)])
     place = {c: i for i, c in enumerate(scenario.order)}
-    classes: dict[tuple, list[int]] = {}
-    for c in scenario.order:
-        classes.setdefault(tuple(site.compatible[c]), []).append(c)
+    of_class = classes(env)
     rows = []
     for c in range(n):
-        members, fits = classes[tuple(site.compatible[c])], list(site.compatible[c])
+        members, fits = of_class[tuple(site.compatible[c])], list(site.compatible[c])
         by_distance = sorted(members, key=lambda k: shortest[k])
         pickup = np.mean([site.cell(x) for x in sim.state.pickup[c]], axis=0) / size
         rows.append([
@@ -86,6 +84,13 @@ def collect(sites, spec: str, seed: int) -> list[tuple[np.ndarray, list[int]]]:
     return out
 
 
+def earlier(order: list[int]) -> np.ndarray:
+    """(C, C) bool: component ``a`` comes before ``b`` in ``order``."""
+    place = np.empty(len(order), dtype=np.int64)
+    place[order] = np.arange(len(order))
+    return place[:, None] < place[None, :]
+
+
 def fit(data, epochs: int, seed: int):
     """The scorer (module doc) fitted to the start orders; returns ``features -> scores``."""
     import torch
@@ -100,15 +105,13 @@ def fit(data, epochs: int, seed: int):
     optimiser = torch.optim.Adam(net.parameters(), lr=3e-3)
     pairs = []
     for features, order in data:
-        place = np.empty(len(order), dtype=np.int64)
-        place[order] = np.arange(len(order))
-        earlier = torch.tensor(place[:, None] < place[None, :], dtype=torch.float32)
-        pairs.append((torch.tensor(features), earlier))
+        first = torch.tensor(earlier(order), dtype=torch.float32)
+        pairs.append((torch.tensor(features), first))
     for _ in range(epochs):
-        for features, earlier in pairs:
+        for features, first in pairs:
             scores = net(features).squeeze(-1)
             margin = scores[:, None] - scores[None, :]
-            loss = (torch.nn.functional.softplus(-margin) * earlier).sum() / earlier.sum()
+            loss = (torch.nn.functional.softplus(-margin) * first).sum() / first.sum()
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
@@ -124,12 +127,9 @@ def agreement(score, data) -> float:
     """The share of ordered pairs the scores put in the start order's order."""
     right = total = 0
     for features, order in data:
-        s = score(features)
-        place = np.empty(len(order), dtype=np.int64)
-        place[order] = np.arange(len(order))
-        earlier = place[:, None] < place[None, :]
-        right += int(((s[:, None] > s[None, :]) & earlier).sum())
-        total += int(earlier.sum())
+        s, first = score(features), earlier(order)
+        right += int(((s[:, None] > s[None, :]) & first).sum())
+        total += int(first.sum())
     return right / max(total, 1)
 
 

@@ -53,21 +53,26 @@ def start_order(env, actions: list[list[int]]) -> list[int]:
     return list(seen) + rest
 
 
-def within_classes(env, order: list[int]) -> list[int]:
-    """The scenario's list order with each class of interchangeable components (same
-    compatible targets) put in ``order``'s order, at the class's own places."""
+def classes(env) -> dict[tuple, list[int]]:
+    """The classes of interchangeable components (same compatible targets), each listed in the
+    scenario's order."""
     base = env.unwrapped
-    compatible = base.sim.site.compatible
-    place = {c: i for i, c in enumerate(order)}
-    classes: dict[tuple, list[int]] = {}
+    out: dict[tuple, list[int]] = {}
     for c in base.scenario.order:
-        classes.setdefault(tuple(compatible[c]), []).append(c)
-    out = list(base.scenario.order)
-    for members in classes.values():
-        slots = sorted(base.scenario.order.index(c) for c in members)
-        for slot, c in zip(slots, sorted(members, key=place.__getitem__), strict=True):
-            out[slot] = c
+        out.setdefault(tuple(base.sim.site.compatible[c]), []).append(c)
     return out
+
+
+def within_classes(env, order: list[int]) -> list[int]:
+    """The scenario's list order with each class of interchangeable components put in
+    ``order``'s order, at the class's own places."""
+    listed = list(env.unwrapped.scenario.order)
+    slot = {c: i for i, c in enumerate(listed)}
+    place = {c: i for i, c in enumerate(order)}
+    for members in classes(env).values():
+        for c, k in zip(sorted(members, key=place.__getitem__), members, strict=True):
+            listed[slot[k]] = c
+    return listed
 
 
 def swapped(order: list[int], swaps: int, rng: np.random.Generator) -> list[int]:
