@@ -64,12 +64,12 @@ whose choices then depend on the machine's speed (no budget, the default, is det
 from __future__ import annotations
 
 import contextlib
-import copy
 import gc
 import time
 
 import numpy as np
 
+from multicrane.envs.rollout_copy import has_events, rollout_copy
 from policies.task_planners import TaskPrioritized, _book
 
 UNFINISHED = 10**9  # the makespan of a copy that hits the step limit (or the round's deadline)
@@ -96,7 +96,7 @@ class TaskLookahead:
                  rank: str = "list", base=None, guide=None, budget: float | None = None,
                  cranes: int = 1, planner: bool = False):  # fmt: skip
         self.env, _ = _book(env)
-        if self.env.sim.schedule is not None or self.env.observation_layout.events is not None:
+        if has_events(self.env):
             raise ValueError(
                 "lookahead plays copies of the environment, which hold the episode's future "
                 "site events: use it on sites without events"
@@ -248,21 +248,6 @@ class TaskLookahead:
             return alternatives[best], scores[best]
         return joint, score
 
-    def _copy(self):
-        """A deep copy of the environment that shares what no episode changes (the scenario,
-        the site, the task list and the static path lengths, a cache of the site's) and
-        starts the episode's trace afresh: a rollout is never recorded, and the trace, which
-        grows with the episode, was half of a copy's cost."""
-        env = self.env
-        mode = env.mode
-        book = mode.task_book()
-        shared = (env.scenario, env.sim.scenario, env.sim.site, env.observation_layout,
-                  book.tasks, book.static)  # fmt: skip
-        memo = {id(x): x for x in shared}
-        for trace in (mode.trace, mode.trace_events, mode.trace_rewards, mode.decisions):
-            memo[id(trace)] = []
-        return copy.deepcopy(env, memo)
-
     def _finish(self, joint: dict) -> int:
         """The makespan of playing ``joint`` on a copy, then the base policy (with
         ``planner``: the shorter of that and the planner's finish of another copy)."""
@@ -272,7 +257,7 @@ class TaskLookahead:
         """The makespan of playing ``joint`` on a copy, then ``base`` (one rollout);
         ``UNFINISHED`` if it hits the step limit or runs past the round's deadline."""
         self.rollouts += 1
-        env = self._copy()
+        env = rollout_copy(self.env)
         first = env.possible_agents[0]
         policy = base(env)
         deadline, clock = self._deadline, time.perf_counter

@@ -10,7 +10,14 @@ continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
   crane then chooses it), at most ``max_searches`` searches per decision. It gives the
   motion-mode planner's makespans. ``order``: a list order of its own (every component index
   once) in place of the scenario's, e.g. a sequence planned elsewhere (``tools/order_probe.py``
-  replays the order another planner started the components in).
+  replays the order another planner started the components in). ``scorer``: a learned list
+  order instead (``multicrane.tasks.order_scorer.OrderScorer`` or the path of its file, e.g.
+  one ``tools/order_es.py`` trained), computed from the components' static features at the
+  first decision of each episode. ``guard``: at that decision, play the episode on copies of
+  the site with this order and with the plain planner's (``rank="list"``, the scenario's
+  order) and keep the shorter (ties: this order); on a site without events the copy's
+  episode is the real one, so the guarded rule is never longer than the planner (it costs
+  two episodes at reset; refused on sites with events).
 - ``TaskGreedy``: each idle crane, in crane order, takes the allowed task with the shortest
   static path (ties: the lower task number), without a search (a blocked task is held and
   retried by the environment).
@@ -19,11 +26,16 @@ continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
 import numpy as np
 
 from multicrane.envs.decision_modes import task_level
+from multicrane.envs.rollout_copy import has_events, rollout_copy
 from multicrane.episodes.random_actions import random_legal_action
 from multicrane.sim.simulator import NOBODY
+from multicrane.tasks.order_scorer import OrderScorer, component_features
 from multicrane.tasks.priority_rule import check_rank, list_ranks, propose
 
 
@@ -38,12 +50,24 @@ def _book(env):
 class TaskPrioritized:
     """The prioritized rule over tasks (see the module doc); ``stats`` are the carrier's."""
 
-    def __init__(self, env, seed=None, max_searches: int = 8, rank: str = "list", order=None):
+    def __init__(self, env, seed=None, max_searches: int = 8, rank: str = "list", order=None,
+                 scorer=None, guard: bool = False):  # fmt: skip
         self.env, _ = _book(env)
         self.seed = seed
         self.max_searches = max_searches
         self.rank = check_rank(rank)
+        if order is not None and scorer is not None:
+            raise ValueError("give the rule an order or a scorer, not both")
+        if guard and has_events(self.env):
+            raise ValueError("guard plays copies of the environment, which hold the episode's "
+                             "future site events: use it on sites without events")  # fmt: skip
+        if isinstance(scorer, str | Path):
+            scorer = OrderScorer.load(scorer)
+        self.scorer, self.guard = scorer, bool(guard)
+        self.order = None if order is None else list(order)
         self._list_rank = list_ranks(self.env.scenario, order)
+        self._rank = self.rank
+        self._planned_state = None
 
     @property
     def stats(self) -> dict:
@@ -51,9 +75,37 @@ class TaskPrioritized:
 
     def __call__(self, observations: dict) -> dict:
         book = self.env.mode.task_book()
-        chosen = propose(book, self._list_rank, self.rank, self.max_searches)
+        if (self.scorer or self.guard) and self._planned_state is not self.env.sim.state:
+            self._plan_episode(book)
+        chosen = propose(book, self._list_rank, self._rank, self.max_searches)
         return {a: 1 + p if p != NOBODY else 0
                 for a, p in zip(self.env.possible_agents, chosen, strict=True)}  # fmt: skip
+
+
+    def _plan_episode(self, book) -> None:
+        """At an episode's first decision: the scorer's order, and with ``guard`` the shorter
+        of it and the plain planner's on copies of the site."""
+        scenario = self.env.scenario
+        order = self.order
+        if self.scorer is not None:
+            order = self.scorer.order(component_features(book, scenario), scenario)
+        self._rank, self._list_rank = self.rank, list_ranks(scenario, order)
+        if self.guard and self._rollout(self.rank, order) > self._rollout("list", None):
+            self._rank, self._list_rank = "list", list_ranks(scenario)
+        self._planned_state = self.env.sim.state
+
+    def _rollout(self, rank: str, order) -> float:
+        """The makespan of the rule with ``rank`` and ``order`` on a copy of the site from
+        here (``inf``: truncated)."""
+        env = rollout_copy(self.env)
+        rule = TaskPrioritized(env, max_searches=self.max_searches, rank=rank, order=order)
+        first = env.possible_agents[0]
+        while True:
+            _, _, terminations, truncations, _ = env.step(rule({}))
+            if terminations[first]:
+                return env.sim.state.step_count
+            if truncations[first]:
+                return math.inf
 
 
 class TaskGreedy:

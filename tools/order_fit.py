@@ -12,13 +12,7 @@ one thread, ``--seed`` for its weights); then plays the prioritized rule on ever
 orders and the mean makespan. With ``--play`` the same set as ``--fit``, the figure is an
 upper bound: the scorer has seen those very orders.
 
-The features of component ``c`` (all known at reset): its place in the scenario's list order,
-its class's size and its place in its class by list order and by distance (a class: the
-components with the same compatible targets), the shortest and mean distance from its pick-up
-pose to a compatible target, the pick-up pose's x and y, the chain and dependents of target
-``c`` (``multicrane.tasks.support_graph``) and its centre, the mean chain and height of its
-compatible targets, and the crane count; lengths scaled by the site's size or its mean
-shortest distance. Needs the ``train`` extra (torch).
+The features are ``multicrane.tasks.order_scorer.FEATURES``. Needs the ``train`` extra (torch).
 """
 
 from __future__ import annotations
@@ -34,44 +28,17 @@ import multicrane
 import policies
 from multicrane.episodes.rollout import run_episode
 from multicrane.scenario.named_sets import resolve_set
-from multicrane.tasks.support_graph import site_chains
+from multicrane.tasks.order_scorer import component_features as features_of
 from policies.task_planners import TaskPrioritized
 
 sys.path.insert(0, str(Path(__file__).parent))  # tools/ is not a package
-from order_probe import classes, start_order  # noqa: E402
+from order_probe import start_order  # noqa: E402
 
 
 def component_features(env) -> np.ndarray:
-    """(C, 16) float32: the static features of every component (module doc), after reset."""
+    """(C, 16) float32: every component's static features (``multicrane.tasks.order_scorer``)."""
     base = env.unwrapped
-    sim, scenario = base.sim, base.scenario
-    site, n = sim.site, scenario.n_components
-    size = np.asarray(scenario.size, dtype=float)
-    dist = base.mode.task_book().carrier.pair_distances().astype(float)
-    dist[dist < 0] = np.nan
-    shortest, mean = np.nanmin(dist, axis=1), np.nanmean(dist, axis=1)
-    scale = float(np.nanmean(shortest)) or 1.0
-    chain, dependents = site_chains(site)
-    top = max(int(chain.max()), 1)
-    cells: dict[int, list] = {}
-    for cell, t in enumerate(site.target_at.tolist()):
-        if t >= 0:
-            cells.setdefault(t, []).append(site.cell(cell))
-    centre = np.array([np.mean(cells[t], axis=0) / size for t in range(n)])
-    place = {c: i for i, c in enumerate(scenario.order)}
-    of_class = classes(env)
-    rows = []
-    for c in range(n):
-        members, fits = of_class[tuple(site.compatible[c])], list(site.compatible[c])
-        by_distance = sorted(members, key=lambda k: shortest[k])
-        pickup = np.mean([site.cell(x) for x in sim.state.pickup[c]], axis=0) / size
-        rows.append([
-            place[c] / n, len(members) / n, members.index(c) / len(members),
-            by_distance.index(c) / len(members), shortest[c] / scale, mean[c] / scale,
-            pickup[0], pickup[1], chain[c] / top, dependents[c] / n, *centre[c],
-            chain[fits].mean() / top, centre[fits, 2].mean(), sim.n_cranes / 16,
-        ])  # fmt: skip
-    return np.nan_to_num(np.asarray(rows, dtype=np.float32))
+    return features_of(base.mode.task_book(), base.scenario)
 
 
 def collect(sites, spec: str, seed: int) -> list[tuple[np.ndarray, list[int]]]:

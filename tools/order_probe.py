@@ -34,6 +34,7 @@ import multicrane
 import policies
 from multicrane.episodes.rollout import run_episode
 from multicrane.scenario.named_sets import SET_PREFIX, resolve_set
+from multicrane.tasks.order_scorer import interchangeable_classes
 from policies.task_planners import TaskPrioritized
 
 ROWS = ("policy", "list", "chain", "replayed", "classes", "swapped")
@@ -54,13 +55,9 @@ def start_order(env, actions: list[list[int]]) -> list[int]:
 
 
 def classes(env) -> dict[tuple, list[int]]:
-    """The classes of interchangeable components (same compatible targets), each listed in the
-    scenario's order."""
+    """The classes of interchangeable components, each in the scenario's order."""
     base = env.unwrapped
-    out: dict[tuple, list[int]] = {}
-    for c in base.scenario.order:
-        out.setdefault(tuple(base.sim.site.compatible[c]), []).append(c)
-    return out
+    return interchangeable_classes(base.sim.site, base.scenario.order)
 
 
 def within_classes(env, order: list[int]) -> list[int]:

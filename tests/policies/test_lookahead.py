@@ -12,6 +12,7 @@ from conftest import play_legal
 
 import policies
 from multicrane.envs.crane_env import MultiCraneEnv
+from multicrane.envs.rollout_copy import rollout_copy
 from multicrane.episodes.rollout import Stopwatch, run_episode
 from policies.lookahead import TaskLookahead
 from policies.task_planners import TaskPrioritized
@@ -57,7 +58,7 @@ def test_a_rollout_copy_starts_its_trace_afresh_and_leaves_the_episode_recordabl
     for _ in range(4):
         obs, *_ = env.step(policy(obs))
     trace = [list(step) for step in env.mode.trace]
-    copy = policy._copy()
+    copy = rollout_copy(env)
     assert copy.mode.trace == [] and copy.mode.decisions == []
     assert copy.mode.trace is not env.mode.trace
     copy.step(policy(obs))

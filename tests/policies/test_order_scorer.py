@@ -1,0 +1,173 @@
+"""A learned list order for the prioritized rule (``multicrane.tasks.order_scorer``,
+``TaskPrioritized(scorer=...)``) and its trainer ``tools/order_es.py``: the list-order scorer
+plays the plain rule's episodes action for action, a scorer's order is its scores', a scorer
+file round-trips and a bad one is refused by name, and the trainer is a function of its seed."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import load_tool
+
+import multicrane
+import policies
+from multicrane.episodes.rollout import run_episode
+from multicrane.scenario.named_sets import train_scenario
+from multicrane.tasks.order_scorer import FEATURES, OrderScorer, component_features
+from policies.task_planners import TaskPrioritized
+
+es = load_tool("order_es")
+
+
+def _reset(scenario, cranes, seed):
+    env = multicrane.parallel_env(scenario, n_cranes=cranes, decisions="task")
+    env.reset(seed=seed)
+    return env, env.unwrapped
+
+
+@pytest.mark.parametrize("rank", ["list", "chain"])
+@pytest.mark.parametrize(("scenario", "cranes", "seed"),
+                         [("e3s2", 2, 0), ("hall-4c", 4, 1), ("frame2-3c", 3, 2)])  # fmt: skip
+def test_the_list_order_scorer_plays_the_plain_rule(scenario, cranes, seed, rank):
+    env = multicrane.parallel_env(scenario, n_cranes=cranes, decisions="task")
+    plain = run_episode(env, TaskPrioritized(env, rank=rank), seed, record=True)
+    scored = TaskPrioritized(env, rank=rank, scorer=OrderScorer.list_order())
+    again = run_episode(env, scored, seed, record=True)
+    assert again["actions"] == plain["actions"]
+    assert again["makespan"] == plain["makespan"] is not None
+
+
+def test_features_are_finite_static_and_name_the_list_place():
+    env, base = _reset("hall-4c", 4, 3)
+    features = component_features(base.mode.task_book(), base.scenario)
+    n = base.scenario.n_components
+    assert features.shape == (n, len(FEATURES)) and np.isfinite(features).all()
+    place = {c: i for i, c in enumerate(base.scenario.order)}
+    assert np.allclose(features[:, 0], [place[c] / n for c in range(n)])
+    assert np.allclose(features[:, FEATURES.index("cranes")], 4 / 16)
+    env.step({a: 0 for a in env.agents})  # the features are the reset's, not the step's
+    assert np.array_equal(component_features(base.mode.task_book(), base.scenario), features)
+
+
+def test_the_order_follows_the_scores_with_ties_in_list_order():
+    _, base = _reset("hall-4c", 4, 0)
+    features = component_features(base.mode.task_book(), base.scenario)
+    chain = FEATURES.index("chain")
+    weights = np.zeros(len(FEATURES))
+    weights[chain] = 1.0
+    order = OrderScorer(weights).order(features, base.scenario)
+    assert sorted(order) == list(range(base.scenario.n_components))
+    values = features[order, chain]
+    assert (np.diff(values) <= 0).all()  # highest chain first
+    for level in set(values.tolist()):  # within a level, the scenario's order
+        same = [c for c in order if features[c, chain] == level]
+        assert same == [c for c in base.scenario.order if features[c, chain] == level]
+    reverse = OrderScorer([1.0] + [0.0] * (len(FEATURES) - 1)).order(features, base.scenario)
+    assert reverse == list(reversed(base.scenario.order))
+
+
+def test_the_scorer_is_made_again_for_each_episode():
+    env = multicrane.parallel_env("e3s2", n_cranes=2, decisions="task")
+    weights = np.zeros(len(FEATURES))
+    weights[FEATURES.index("shortest_distance")] = -1.0  # depends on the episode's yard
+    kept = TaskPrioritized(env, rank="chain", scorer=OrderScorer(weights))
+    for seed in (4, 5):
+        fresh = TaskPrioritized(env, rank="chain", scorer=OrderScorer(weights))
+        assert (run_episode(env, kept, seed, record=True)["actions"]
+                == run_episode(env, fresh, seed, record=True)["actions"])  # fmt: skip
+
+
+def test_a_scorer_file_round_trips_and_plays_by_name(tmp_path):
+    weights = np.linspace(-1, 1, len(FEATURES))
+    path = tmp_path / "scorer.json"
+    OrderScorer(weights, {"rank": "chain"}).save(path)
+    loaded = OrderScorer.load(path)
+    assert np.array_equal(loaded.weights, weights) and loaded.meta == {"rank": "chain"}
+    assert np.array_equal(OrderScorer.load(tmp_path).weights, weights)  # the run directory
+    env = multicrane.parallel_env("hall-4c", n_cranes=4, decisions="task")
+    by_name = policies.make(f"prioritized:rank=chain,scorer={tmp_path}", env, seed=1)
+    direct = TaskPrioritized(env, rank="chain", scorer=loaded)
+    assert (run_episode(env, by_name, 1, record=True)["actions"]
+            == run_episode(env, direct, 1, record=True)["actions"])  # fmt: skip
+
+
+GOOD = {"format": "multicrane-order-scorer", "version": 1, "features": list(FEATURES),
+        "weights": [0.0] * len(FEATURES)}  # fmt: skip
+
+
+@pytest.mark.parametrize(("text", "words"), [
+    (None, "cannot read it"),
+    ("{not json", "not JSON"),
+    (json.dumps([1, 2]), "'format' must be"),
+    (json.dumps({**GOOD, "format": "other"}), "'format' must be"),
+    (json.dumps({**GOOD, "features": ["list_place"]}), "'features' must list"),
+    (json.dumps({**GOOD, "weights": [0.0] * 3}), "'weights' must be 16 finite numbers"),
+    (json.dumps({**GOOD, "weights": ["a"] * 16}), "'weights' must be 16 finite numbers"),
+    (json.dumps({**GOOD, "weights": [True] * 16}), "'weights' must be 16 finite numbers"),
+    (json.dumps({**GOOD, "weights": [float("nan")] * 16}), "'weights' must be 16 finite"),
+])  # fmt: skip
+def test_a_bad_scorer_file_is_refused_by_name(tmp_path, text, words):
+    path = tmp_path / "scorer.json"
+    if text is not None:
+        path.write_text(text)
+    with pytest.raises(ValueError, match="order scorer") as err:
+        OrderScorer.load(path)
+    assert words in str(err.value) and str(path) in str(err.value)
+
+
+def test_bad_weights_and_an_order_beside_a_scorer_are_refused():
+    with pytest.raises(ValueError, match="16 finite weights"):
+        OrderScorer([0.0, np.inf] + [0.0] * 14)
+    env = multicrane.parallel_env("e3s2", decisions="task")
+    with pytest.raises(ValueError, match="an order or a scorer, not both"):
+        TaskPrioritized(env, order=list(range(env.unwrapped.scenario.n_components)),
+                        scorer=OrderScorer.list_order())  # fmt: skip
+
+
+def test_eligible_seeds_are_distinct_train_sites_within_the_size():
+    seeds = es.eligible_seeds(np.random.default_rng(0), 5, 20)
+    assert len(set(seeds)) == 5
+    for s in seeds:
+        assert train_scenario(s).n_components <= 20
+
+
+def test_the_trainer_is_a_function_of_its_seed(tmp_path):
+    def run(out, workers):
+        es.main(["--out", str(out), "--seed", "3", "--generations", "2", "--pairs", "1",
+                 "--sites", "2", "--val-sites", "2", "--val-every", "1", "--max-components",
+                 "16", "--workers", str(workers)])  # fmt: skip
+        return OrderScorer.load(out / "scorer.json"), (out / "log.jsonl").read_text()
+
+    one, log = run(tmp_path / "a", 1)
+    two, _ = run(tmp_path / "b", 1)
+    assert np.array_equal(one.weights, two.weights)
+    rows = [json.loads(line) for line in log.splitlines()]
+    assert [r["generation"] for r in rows] == [0, 1, 2]
+    assert rows[0]["validation"] == 1.0  # the start is the plain rule itself
+    assert all(0 < r["ratio"] <= 2 for r in rows[1:])
+    assert one.meta["rank"] == "chain" and one.meta["generation"] in (0, 1, 2)
+    assert one.meta["validation_ratio"] == min(r["validation"] for r in rows)
+
+
+@pytest.mark.parametrize("site_seed", [11, 12, 14, 23, 31, 40])
+def test_the_guarded_rule_is_the_shorter_of_its_order_and_the_planners(site_seed):
+    env = multicrane.parallel_env(train_scenario(site_seed), decisions="task")
+    bad = OrderScorer([1.0] + [0.0] * (len(FEATURES) - 1))  # the list order reversed
+    planner = run_episode(env, TaskPrioritized(env), site_seed)["makespan"]
+    alone = run_episode(env, TaskPrioritized(env, rank="chain", scorer=bad), site_seed)
+    guarded = run_episode(env, TaskPrioritized(env, rank="chain", scorer=bad, guard=True),
+                          site_seed, record=True)  # fmt: skip
+    assert guarded["makespan"] == min(planner, alone["makespan"])  # the copies are the episode
+    assert guarded["makespan"] <= planner
+    if alone["makespan"] > planner:  # fell back: the planner's own episode, action for action
+        plain = run_episode(env, TaskPrioritized(env), site_seed, record=True)
+        assert guarded["actions"] == plain["actions"]
+
+
+def test_the_guard_is_refused_on_a_site_with_events():
+    env = multicrane.parallel_env("e3s2", n_cranes=2, decisions="task", events="low")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="future site events"):
+        TaskPrioritized(env, rank="chain", scorer=OrderScorer.list_order(), guard=True)

@@ -1,0 +1,155 @@
+"""Learns the prioritized rule's list order on ``train`` sites: a scorer, by evolution strategies.
+
+    .venv/bin/python tools/order_es.py --seed 0 --out runs/order-es/s0
+    multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \\
+        --policy prioritized:rank=chain prioritized:rank=chain,scorer=runs/order-es/s0/scorer.json
+
+The policy is ``TaskPrioritized(rank=--rank, scorer=...)``: the rule with the components in
+the order of a linear score of their static features (``multicrane.tasks.order_scorer``),
+computed once at reset; nothing is searched when it plays beyond what the rule itself asks
+of the carrier. The weights start at the scenario's list order (the plain rule) and follow
+OpenAI-style evolution strategies: each generation draws ``--sites`` sites of the ``train``
+distribution with at most ``--max-components`` components (the reset seed is the site's
+seed) and ``--pairs`` Gaussian directions; each direction is played at plus and minus
+``--sigma`` on every site; the fitness is the mean over the sites of the makespan divided by
+the rule's own (``rank=--rank``, the scenario's order; an unfinished episode counts twice
+the rule's); the difference of each pair, over the spread of the generation, weighs its
+direction, and Adam (``--lr``) takes the step. Every ``--val-every`` generations the
+weights play ``--val-sites`` other train sites; the best so far is written to
+``OUT/scorer.json`` (its meta: the rank, the seed, the generation, the validation ratio),
+and every generation to ``OUT/log.jsonl`` (episodes played, wall seconds, the generation's
+mean ratio, the validation ratio). All draws come from ``--seed``; ``--workers`` processes
+play the episodes (the result does not depend on their number). Base install only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from multiprocessing import Pool
+from pathlib import Path
+
+import numpy as np
+
+import multicrane
+from multicrane.episodes.rollout import run_episode
+from multicrane.scenario.named_sets import TRAIN_SEEDS, component_count, train_member
+from multicrane.tasks.order_scorer import FEATURES, OrderScorer
+from policies.task_planners import TaskPrioritized
+
+
+def eligible_seeds(rng: np.random.Generator, count: int, max_components: int) -> list[int]:
+    """``count`` distinct train seeds whose sites have at most ``max_components`` components
+    (read from the drawn shape, without generating the site)."""
+    out: list[int] = []
+    while len(out) < count:
+        s = int(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop))
+        if s not in out and component_count(dict(train_member(s).params)) <= max_components:
+            out.append(s)
+    return out
+
+
+def site_ratios(site_seed: int, rank: str, weights: list[np.ndarray]) -> list[float]:
+    """On one train site (reset seed: the site's), each weight vector's makespan over the
+    rule's own with the scenario's order (an unfinished episode: 2)."""
+    env = multicrane.parallel_env(train_member(site_seed).scenario(), decisions="task")
+    base = run_episode(env, TaskPrioritized(env, rank=rank), site_seed)["makespan"]
+    out = []
+    for w in weights:
+        span = run_episode(env, TaskPrioritized(env, rank=rank, scorer=OrderScorer(w)),
+                           site_seed)["makespan"]  # fmt: skip
+        out.append(2.0 if span is None or base is None else span / base)
+    return out
+
+
+def _job(args) -> list[float]:
+    return site_ratios(*args)
+
+
+def es_step(mapper, weights, sites, rng, args) -> tuple[np.ndarray, float]:
+    """One generation: the gradient estimate of the mean ratio (lower is better) and the
+    generation's mean ratio."""
+    eps = rng.standard_normal((args.pairs, weights.size))
+    probes = [weights + sign * args.sigma * e for e in eps for sign in (1.0, -1.0)]
+    jobs = [(s, args.rank, probes) for s in sites]
+    ratios = np.array(mapper(_job, jobs, chunksize=1)).mean(axis=0).reshape(args.pairs, 2)
+    spread = max(float(ratios.std()), 1e-3)
+    grad = ((ratios[:, 0] - ratios[:, 1])[:, None] * eps).sum(0)
+    return grad / (2 * args.pairs * args.sigma * spread), float(ratios.mean())
+
+
+def train(args) -> OrderScorer:
+    """The ES loop of the module doc; returns the best scorer by validation (also saved)."""
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(args.seed)
+    val_sites = eligible_seeds(np.random.default_rng([args.seed, 1]), args.val_sites,
+                               args.max_components)  # fmt: skip
+    weights = OrderScorer.list_order().weights.copy()
+    m, v = np.zeros_like(weights), np.zeros_like(weights)
+    best, episodes, start = (np.inf, weights.copy(), 0), 0, time.perf_counter()
+    pool = Pool(args.workers) if args.workers > 1 else None
+    mapper = pool.map if pool else (lambda f, jobs, chunksize: list(map(f, jobs)))
+    with (out / "log.jsonl").open("w") as log:
+
+        def validate(w) -> float:
+            rows = mapper(_job, [(s, args.rank, [w]) for s in val_sites], chunksize=1)
+            return float(np.mean(rows))
+
+        for gen in range(args.generations + 1):
+            row = {"generation": gen}
+            if gen:
+                sites = eligible_seeds(rng, args.sites, args.max_components)
+                grad, row["ratio"] = es_step(mapper, weights, sites, rng, args)
+                episodes += args.sites * (2 * args.pairs + 1)
+                m = 0.9 * m + 0.1 * grad
+                v = 0.999 * v + 0.001 * grad**2
+                step = (m / (1 - 0.9**gen)) / (np.sqrt(v / (1 - 0.999**gen)) + 1e-8)
+                weights = weights - args.lr * step
+            if gen % args.val_every == 0:
+                row["validation"] = validate(weights)
+                episodes += 2 * len(val_sites)
+                if row["validation"] < best[0]:
+                    best = (row["validation"], weights.copy(), gen)
+            row |= {"episodes": episodes, "seconds": round(time.perf_counter() - start, 1)}
+            log.write(json.dumps(row) + "\n")
+            log.flush()
+            print(json.dumps(row), flush=True)
+    if pool:
+        pool.close()
+    meta = {"rank": args.rank, "seed": args.seed, "generation": best[2],
+            "validation_ratio": best[0], "max_components": args.max_components}  # fmt: skip
+    scorer = OrderScorer(best[1], meta)
+    scorer.save(out / "scorer.json")
+    return scorer
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--out", required=True, help="the run directory (scorer.json, log.jsonl)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--generations", type=int, default=140)
+    p.add_argument("--pairs", type=int, default=8, help="directions per generation (x2 probes)")
+    p.add_argument("--sites", type=int, default=16, help="train sites per generation")
+    p.add_argument("--sigma", type=float, default=0.05)
+    p.add_argument("--lr", type=float, default=0.02)
+    p.add_argument("--rank", default="chain", choices=("list", "chain", "nearest"))
+    p.add_argument("--max-components", type=int, default=40)
+    p.add_argument("--val-sites", type=int, default=48)
+    p.add_argument("--val-every", type=int, default=10)
+    p.add_argument("--workers", type=int, default=2)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    scorer = train(args)
+    named = ", ".join(f"{n} {w:+.3f}" for n, w in zip(FEATURES, scorer.weights, strict=True))
+    print(f"best validation ratio {scorer.meta['validation_ratio']:.4f} at generation "
+          f"{scorer.meta['generation']}; weights: {named}")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
