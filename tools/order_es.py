@@ -127,7 +127,9 @@ def train(args) -> OrderScorer:
 
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--out", required=True, help="the run directory (scorer.json, log.jsonl)")
+    p.add_argument("--out", help="the run directory (scorer.json, log.jsonl)")
+    p.add_argument("--curves", nargs="+", metavar="RUN",
+                   help="print these runs' validation curves (their log.jsonl) and exit")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--generations", type=int, default=140)
     p.add_argument("--pairs", type=int, default=8, help="directions per generation (x2 probes)")
@@ -142,8 +144,33 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def curves(runs: list[str]) -> str:
+    """A table: per validation point, each run's validation ratio, and the episodes and wall
+    seconds the first run had taken by then."""
+    logs = []
+    for run in runs:
+        path = Path(run) / "log.jsonl"
+        if not path.is_file():
+            raise SystemExit(f"order_es: {path}: no such log (a run directory of this tool)")
+        logs.append([r for r in map(json.loads, path.read_text().splitlines())
+                     if "validation" in r])  # fmt: skip
+    names = [Path(r).name for r in runs]
+    lines = ["| generation | episodes | seconds | " + " | ".join(names) + " |",
+             "|---:|---:|---:|" + "---:|" * len(runs)]  # fmt: skip
+    for i, row in enumerate(logs[0]):
+        cells = [f"{log[i]['validation']:.4f}" if i < len(log) else "" for log in logs]
+        lines.append(f"| {row['generation']} | {row['episodes']:,} | {row['seconds']:.0f} | "
+                     + " | ".join(cells) + " |")  # fmt: skip
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    if args.curves:
+        print(curves(args.curves))
+        return 0
+    if not args.out:
+        parser().error("--out is required to train (or give --curves)")
     scorer = train(args)
     named = ", ".join(f"{n} {w:+.3f}" for n, w in zip(FEATURES, scorer.weights, strict=True))
     print(f"best validation ratio {scorer.meta['validation_ratio']:.4f} at generation "

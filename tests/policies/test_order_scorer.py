@@ -149,6 +149,11 @@ def test_the_trainer_is_a_function_of_its_seed(tmp_path):
     assert all(0 < r["ratio"] <= 2 for r in rows[1:])
     assert one.meta["rank"] == "chain" and one.meta["generation"] in (0, 1, 2)
     assert one.meta["validation_ratio"] == min(r["validation"] for r in rows)
+    table = es.curves([str(tmp_path / "a"), str(tmp_path / "b")]).splitlines()
+    assert table[0].endswith("| a | b |") and len(table) == 2 + 3
+    assert table[2].startswith("| 0 |") and table[2].endswith("| 1.0000 | 1.0000 |")
+    with pytest.raises(SystemExit, match="no such log"):
+        es.curves([str(tmp_path)])
 
 
 @pytest.mark.parametrize("site_seed", [11, 12, 14, 23, 31, 40])
