@@ -174,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     scorer = train(args)
     named = ", ".join(f"{n} {w:+.3f}" for n, w in zip(FEATURES, scorer.weights, strict=True))
     print(f"best validation ratio {scorer.meta['validation_ratio']:.4f} at generation "
-          f"{scorer.meta['generation']}; weights: {named}")  # fmt: skip
+          f"{scorer.meta['generation']}; weights: {named}\n"
+          f"play it: --policy prioritized:rank={args.rank},scorer={args.out}")  # fmt: skip
     return 0
 
 
