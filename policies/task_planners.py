@@ -81,7 +81,6 @@ class TaskPrioritized:
         return {a: 1 + p if p != NOBODY else 0
                 for a, p in zip(self.env.possible_agents, chosen, strict=True)}  # fmt: skip
 
-
     def _plan_episode(self, book) -> None:
         """At an episode's first decision: the scorer's order, and with ``guard`` the shorter
         of it and the plain planner's on copies of the site."""

@@ -1,8 +1,8 @@
 """Learns the prioritized rule's list order on ``train`` sites: a scorer, by evolution strategies.
 
-    .venv/bin/python tools/order_es.py --seed 0 --out runs/order-es/s0
+    .venv/bin/python tools/order_es.py --seed 0 --generations 160 --out runs/order-es/es-s0
     multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \\
-        --policy prioritized:rank=chain prioritized:rank=chain,scorer=runs/order-es/s0/scorer.json
+        --policy prioritized:rank=chain prioritized:rank=chain,scorer=runs/order-es/es-s0
 
 The policy is ``TaskPrioritized(rank=--rank, scorer=...)``: the rule with the components in
 the order of a linear score of their static features (``multicrane.tasks.order_scorer``),
