@@ -1,25 +1,25 @@
 """Learns the prioritized rule's list order on ``train`` sites: a scorer, by evolution strategies.
 
-    .venv/bin/python tools/order_es.py --seed 0 --generations 160 --out runs/order-es/es-s0
+    .venv/bin/python tools/order_es.py --seed 0 --generations 160 --out runs/order-es21/es-s0
     multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \\
-        --policy prioritized:rank=chain prioritized:rank=chain,scorer=runs/order-es/es-s0
+        --policy prioritized:rank=chain prioritized:rank=chain,scorer=runs/order-es21/es-s0
 
-The policy is ``TaskPrioritized(rank=--rank, scorer=...)``: the rule with the components in
-the order of a linear score of their static features (``multicrane.tasks.order_scorer``),
-computed once at reset; nothing is searched when it plays beyond what the rule itself asks
-of the carrier. The weights start at the scenario's list order (the plain rule) and follow
+The policy is ``TaskPrioritized(rank=--rank, scorer=...)``: the rule with the components in the
+order of a linear score of their static features (``multicrane.tasks.order_scorer``), computed
+once at reset; nothing is searched when it plays beyond what the rule itself asks of the
+carrier. The weights start at the scenario's list order (the plain rule) and follow
 OpenAI-style evolution strategies: each generation draws ``--sites`` sites of the ``train``
-distribution with at most ``--max-components`` components (the reset seed is the site's
-seed) and ``--pairs`` Gaussian directions; each direction is played at plus and minus
-``--sigma`` on every site; the fitness is the mean over the sites of the makespan divided by
-the rule's own (``rank=--rank``, the scenario's order; an unfinished episode counts twice
-the rule's); the difference of each pair, over the spread of the generation, weighs its
-direction, and Adam (``--lr``) takes the step. Every ``--val-every`` generations the
-weights play ``--val-sites`` other train sites; the best so far is written to
-``OUT/scorer.json`` (its meta: the rank, the seed, the generation, the validation ratio),
-and every generation to ``OUT/log.jsonl`` (episodes played, wall seconds, the generation's
-mean ratio, the validation ratio). All draws come from ``--seed``; ``--workers`` processes
-play the episodes (the result does not depend on their number). Base install only.
+distribution with at most ``--max-components`` components and ``--cranes`` cranes (the reset
+seed is the site's seed) and ``--pairs`` Gaussian directions; each direction is played at plus
+and minus ``--sigma`` on every site; the fitness is the mean over the sites of the makespan
+divided by the rule's own (``rank=--rank``, the scenario's order; an unfinished episode counts
+twice the rule's); the difference of each pair, over the spread of the generation, weighs its
+direction, and Adam (``--lr``) takes the step. Every ``--val-every`` generations the weights
+play ``--val-sites`` other train sites; the best so far is written to ``OUT/scorer.json`` (its
+meta: the rank, the seed, the generation, the validation ratio, the training range), and every
+generation to ``OUT/log.jsonl`` (episodes played, wall seconds, the generation's mean ratio,
+the validation ratio). All draws come from ``--seed``; ``--workers`` processes play the
+episodes (the result does not depend on their number). Base install only.
 """
 
 from __future__ import annotations
@@ -39,13 +39,18 @@ from multicrane.tasks.order_scorer import FEATURES, OrderScorer
 from policies.task_planners import TaskPrioritized
 
 
-def eligible_seeds(rng: np.random.Generator, count: int, max_components: int) -> list[int]:
+def eligible_seeds(
+    rng: np.random.Generator, count: int, max_components: int, cranes: tuple[int, int] = (1, 4)
+) -> list[int]:
     """``count`` distinct train seeds whose sites have at most ``max_components`` components
-    (read from the drawn shape, without generating the site)."""
+    and a crane count in ``cranes`` (inclusive; read from the drawn parameters, without
+    generating the site)."""
     out: list[int] = []
     while len(out) < count:
         s = int(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop))
-        if s not in out and component_count(dict(train_member(s).params)) <= max_components:
+        params = dict(train_member(s).params)
+        fits = cranes[0] <= params["cranes"] <= cranes[1]
+        if s not in out and fits and component_count(params) <= max_components:
             out.append(s)
     return out
 
@@ -70,8 +75,10 @@ def _job(args) -> list[float]:
 def es_step(mapper, weights, sites, rng, args) -> tuple[np.ndarray, float]:
     """One generation: the gradient estimate of the mean ratio (lower is better) and the
     generation's mean ratio."""
-    eps = rng.standard_normal((args.pairs, weights.size))
-    probes = [weights + sign * args.sigma * e for e in eps for sign in (1.0, -1.0)]
+    eps = rng.standard_normal((args.pairs, args.features))
+    pad = len(FEATURES) - args.features
+    probes = [weights + sign * args.sigma * np.pad(e, (0, pad)) for e in eps
+              for sign in (1.0, -1.0)]  # fmt: skip
     jobs = [(s, args.rank, probes) for s in sites]
     ratios = np.array(mapper(_job, jobs, chunksize=1)).mean(axis=0).reshape(args.pairs, 2)
     spread = max(float(ratios.std()), 1e-3)
@@ -84,10 +91,10 @@ def train(args) -> OrderScorer:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(args.seed)
-    val_sites = eligible_seeds(np.random.default_rng([args.seed, 1]), args.val_sites,
-                               args.max_components)  # fmt: skip
+    draw = (args.max_components, tuple(args.cranes))
+    val_sites = eligible_seeds(np.random.default_rng([args.seed, 1]), args.val_sites, *draw)
     weights = OrderScorer.list_order().weights.copy()
-    m, v = np.zeros_like(weights), np.zeros_like(weights)
+    m, v = np.zeros(args.features), np.zeros(args.features)
     best, episodes, start = (np.inf, weights.copy(), 0), 0, time.perf_counter()
     pool = Pool(args.workers) if args.workers > 1 else None
     mapper = pool.map if pool else (lambda f, jobs, chunksize: list(map(f, jobs)))
@@ -100,13 +107,13 @@ def train(args) -> OrderScorer:
         for gen in range(args.generations + 1):
             row = {"generation": gen}
             if gen:
-                sites = eligible_seeds(rng, args.sites, args.max_components)
+                sites = eligible_seeds(rng, args.sites, *draw)
                 grad, row["ratio"] = es_step(mapper, weights, sites, rng, args)
                 episodes += args.sites * (2 * args.pairs + 1)
                 m = 0.9 * m + 0.1 * grad
                 v = 0.999 * v + 0.001 * grad**2
                 step = (m / (1 - 0.9**gen)) / (np.sqrt(v / (1 - 0.999**gen)) + 1e-8)
-                weights = weights - args.lr * step
+                weights[: args.features] -= args.lr * step
             if gen % args.val_every == 0:
                 row["validation"] = validate(weights)
                 episodes += 2 * len(val_sites)
@@ -119,7 +126,8 @@ def train(args) -> OrderScorer:
     if pool:
         pool.close()
     meta = {"rank": args.rank, "seed": args.seed, "generation": best[2],
-            "validation_ratio": best[0], "max_components": args.max_components}  # fmt: skip
+            "validation_ratio": best[0], "max_components": args.max_components,
+            "cranes": list(args.cranes), "features": args.features}  # fmt: skip
     scorer = OrderScorer(best[1], meta)
     scorer.save(out / "scorer.json")
     return scorer
@@ -138,9 +146,14 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--lr", type=float, default=0.02)
     p.add_argument("--rank", default="chain", choices=("list", "chain", "nearest"))
     p.add_argument("--max-components", type=int, default=40)
+    p.add_argument("--cranes", type=int, nargs=2, default=(1, 4), metavar=("LO", "HI"),
+                   help="train (and validate) on sites with LO..HI cranes (train draws 1-4)")
     p.add_argument("--val-sites", type=int, default=48)
     p.add_argument("--val-every", type=int, default=10)
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--features", type=int, default=len(FEATURES), metavar="K",
+                   help=f"train the first K of the {len(FEATURES)} features, the rest stay 0 "
+                        "(16: the features before the yard and crane terms)")
     return p
 
 
@@ -166,6 +179,8 @@ def curves(runs: list[str]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    if not 1 <= args.features <= len(FEATURES):
+        parser().error(f"--features must be 1..{len(FEATURES)}, got {args.features}")
     if args.curves:
         print(curves(args.curves))
         return 0

@@ -12,7 +12,11 @@ distance): its place in the scenario's list order, its class's size and its plac
 by list order and by distance (a class: the components with the same compatible targets), the
 shortest and mean distance from its pick-up pose to a compatible target, the pick-up pose's x
 and y, the chain and dependents of target ``c`` (``multicrane.tasks.support_graph``) and its
-centre, the mean chain and height of its compatible targets, and the crane count.
+centre, the mean chain and height of its compatible targets, the crane count; then its place
+among all components by shortest distance, the pick-up pose's height, how many components lie
+next to it in the yard (``yard_neighbours``), the mean dependents of its compatible targets,
+and the crane count times its shortest distance. A per-site constant changes no order in a
+linear score; the last term lets the weight of the distance grow or shrink with the cranes.
 """
 
 from __future__ import annotations
@@ -29,7 +33,8 @@ from multicrane.tasks.support_graph import site_chains
 FEATURES = (
     "list_place", "class_size", "class_place", "class_place_by_distance", "shortest_distance",
     "mean_distance", "pickup_x", "pickup_y", "chain", "dependents", "centre_x", "centre_y",
-    "centre_z", "fits_chain", "fits_height", "cranes",
+    "centre_z", "fits_chain", "fits_height", "cranes", "distance_rank", "pickup_z",
+    "yard_neighbours", "fits_dependents", "cranes_x_distance",
 )  # fmt: skip
 FORMAT = "multicrane-order-scorer"
 
@@ -41,6 +46,16 @@ def interchangeable_classes(site, order) -> dict[tuple, list[int]]:
     for c in order:
         out.setdefault(tuple(site.compatible[c]), []).append(c)
     return out
+
+
+def yard_neighbours(site, pickup) -> list[int]:
+    """Per component, how many others lie in the yard next to it: a pick-up cell within one
+    cell of its own, horizontally (any height); 0 for a pre-built component."""
+    columns = [{tuple(site.cell(x)[:2]) for x in cells} for cells in pickup]
+    around = [{(x + dx, y + dy) for x, y in cols for dx in (-1, 0, 1) for dy in (-1, 0, 1)}
+              for cols in columns]  # fmt: skip
+    return [sum(1 for j, other in enumerate(columns) if j != c and other & around[c])
+            if columns[c] else 0 for c in range(len(columns))]  # fmt: skip
 
 
 def component_features(book: TaskBook, scenario) -> np.ndarray:
@@ -62,6 +77,8 @@ def component_features(book: TaskBook, scenario) -> np.ndarray:
     centre = np.array([np.mean(cells[t], axis=0) / size for t in range(n)])
     place = {c: i for i, c in enumerate(scenario.order)}
     of_class = interchangeable_classes(site, scenario.order)
+    distance_rank = np.argsort(np.argsort(np.nan_to_num(shortest), kind="stable"), kind="stable")
+    neighbours = yard_neighbours(site, sim.state.pickup)
     rows = []
     for c in range(n):
         members, fits = of_class[tuple(site.compatible[c])], list(site.compatible[c])
@@ -72,6 +89,8 @@ def component_features(book: TaskBook, scenario) -> np.ndarray:
             by_distance.index(c) / len(members), shortest[c] / scale, mean[c] / scale,
             pickup[0], pickup[1], chain[c] / top, dependents[c] / n, *centre[c],
             chain[fits].mean() / top, centre[fits, 2].mean(), sim.n_cranes / 16,
+            distance_rank[c] / n, pickup[2], neighbours[c] / 8, dependents[fits].mean() / n,
+            sim.n_cranes / 16 * shortest[c] / scale,
         ])  # fmt: skip
     return np.nan_to_num(np.asarray(rows, dtype=np.float32))
 
@@ -109,7 +128,8 @@ class OrderScorer:
     @classmethod
     def load(cls, path) -> OrderScorer:
         """Reads a scorer file, or ``scorer.json`` in a run directory; ``ValueError`` names the
-        file and the key that is wrong."""
+        file and the key that is wrong. A file that names only the first features (one
+        written before the later ones were added) weighs the others 0: the same order."""
         path = Path(path)
         if path.is_dir():
             path = path / "scorer.json"
@@ -123,16 +143,19 @@ class OrderScorer:
                              f"{exc.lineno})") from None  # fmt: skip
         if not isinstance(body, dict) or body.get("format") != FORMAT:
             raise ValueError(f"order scorer {str(path)!r}: 'format' must be {FORMAT!r}")
-        if body.get("features") != list(FEATURES):
+        named = body.get("features")
+        if not isinstance(named, list) or not named or named != list(FEATURES[: len(named)]):
             raise ValueError(f"order scorer {str(path)!r}: 'features' must list "
-                             f"{', '.join(FEATURES)}, got {body.get('features')!r}")  # fmt: skip
+                             f"{', '.join(FEATURES)} (or the first of them, in this order), "
+                             f"got {named!r}")  # fmt: skip
         weights = body.get("weights")
         ok = isinstance(weights, list) and all(
             isinstance(w, int | float) and not isinstance(w, bool) and math.isfinite(w)
             for w in weights
         )
-        if not ok or len(weights) != len(FEATURES):
-            raise ValueError(f"order scorer {str(path)!r}: 'weights' must be {len(FEATURES)} "
-                             f"finite numbers, got {weights!r}")  # fmt: skip
+        if not ok or len(weights) != len(named):
+            raise ValueError(f"order scorer {str(path)!r}: 'weights' must be {len(named)} "
+                             f"finite numbers, one per feature, got {weights!r}")  # fmt: skip
         meta = body.get("meta", {})
-        return cls(weights, meta if isinstance(meta, dict) else {})
+        padded = list(weights) + [0.0] * (len(FEATURES) - len(named))
+        return cls(padded, meta if isinstance(meta, dict) else {})

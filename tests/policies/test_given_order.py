@@ -10,6 +10,7 @@ from conftest import load_tool
 
 import multicrane
 from multicrane.episodes.rollout import run_episode
+from multicrane.tasks.order_scorer import FEATURES
 from multicrane.tasks.priority_rule import list_ranks
 from policies.task_planners import TaskPrioritized
 
@@ -72,7 +73,7 @@ def test_the_order_scorer_learns_a_sites_start_order_and_plays_it():
     sites = [("hall-4c", "hall-4c")]
     data = fitter.collect(sites, "prioritized:rank=chain", 3)
     features, order = data[0]
-    assert features.shape == (29, 16) and sorted(order) == list(range(29))
+    assert features.shape == (29, len(FEATURES)) and sorted(order) == list(range(29))
     assert np.isfinite(features).all()
     score = fitter.fit(data, epochs=300, seed=0)
     assert fitter.agreement(score, data) > 0.95  # a wrong sign in the loss gives about 0

@@ -15,7 +15,12 @@ import multicrane
 import policies
 from multicrane.episodes.rollout import run_episode
 from multicrane.scenario.named_sets import train_scenario
-from multicrane.tasks.order_scorer import FEATURES, OrderScorer, component_features
+from multicrane.tasks.order_scorer import (
+    FEATURES,
+    OrderScorer,
+    component_features,
+    yard_neighbours,
+)
 from policies.task_planners import TaskPrioritized
 
 es = load_tool("order_es")
@@ -47,8 +52,35 @@ def test_features_are_finite_static_and_name_the_list_place():
     place = {c: i for i, c in enumerate(base.scenario.order)}
     assert np.allclose(features[:, 0], [place[c] / n for c in range(n)])
     assert np.allclose(features[:, FEATURES.index("cranes")], 4 / 16)
+    ranks = features[:, FEATURES.index("distance_rank")] * n  # each component's place, once
+    assert sorted(np.rint(ranks).astype(int).tolist()) == list(range(n))
+    shortest = features[:, FEATURES.index("shortest_distance")]
+    assert (np.diff(shortest[np.argsort(ranks)]) >= 0).all()  # ranked by the shortest distance
     env.step({a: 0 for a in env.agents})  # the features are the reset's, not the step's
     assert np.array_equal(component_features(base.mode.task_book(), base.scenario), features)
+
+
+class _Grid:
+    """A stand-in site: cell ``i`` of a 10 x 10 x 5 grid, x fastest."""
+
+    @staticmethod
+    def cell(i):
+        return (i % 10, i // 10 % 10, i // 100)
+
+
+def _at(*cells):
+    return [x + 10 * y + 100 * z for x, y, z in cells]
+
+
+@pytest.mark.parametrize(("pickup", "expected"), [
+    ([_at((0, 0, 0)), _at((5, 5, 0))], [0, 0]),  # far apart
+    ([_at((0, 0, 0)), _at((1, 1, 0))], [1, 1]),  # diagonal neighbours
+    ([_at((0, 0, 0)), _at((2, 0, 0))], [0, 0]),  # two cells apart
+    ([_at((3, 3, 0)), _at((3, 3, 2))], [1, 1]),  # one above the other
+    ([_at((0, 0, 0), (1, 0, 0), (2, 0, 0)), _at((3, 0, 0)), _at((0, 1, 0)), []], [2, 1, 1, 0]),
+])  # fmt: skip
+def test_yard_neighbours_counts_the_components_next_to_each(pickup, expected):
+    assert yard_neighbours(_Grid, pickup) == expected
 
 
 def test_the_order_follows_the_scores_with_ties_in_list_order():
@@ -93,8 +125,21 @@ def test_a_scorer_file_round_trips_and_plays_by_name(tmp_path):
             == run_episode(env, direct, 1, record=True)["actions"])  # fmt: skip
 
 
+N = len(FEATURES)
 GOOD = {"format": "multicrane-order-scorer", "version": 1, "features": list(FEATURES),
-        "weights": [0.0] * len(FEATURES)}  # fmt: skip
+        "weights": [0.0] * N}  # fmt: skip
+FIRST = list(FEATURES[:16])  # a file written before the later features were added
+
+
+def test_a_file_of_the_first_features_weighs_the_later_ones_zero(tmp_path):
+    weights = np.linspace(-1, 1, 16)
+    path = tmp_path / "scorer.json"
+    path.write_text(json.dumps({**GOOD, "features": FIRST, "weights": weights.tolist()}))
+    loaded = OrderScorer.load(path)
+    assert np.array_equal(loaded.weights, np.concatenate([weights, np.zeros(N - 16)]))
+    _, base = _reset("hall-4c", 4, 2)
+    features = component_features(base.mode.task_book(), base.scenario)
+    assert np.allclose(loaded.scores(features), features[:, :16] @ weights)
 
 
 @pytest.mark.parametrize(("text", "words"), [
@@ -102,11 +147,15 @@ GOOD = {"format": "multicrane-order-scorer", "version": 1, "features": list(FEAT
     ("{not json", "not JSON"),
     (json.dumps([1, 2]), "'format' must be"),
     (json.dumps({**GOOD, "format": "other"}), "'format' must be"),
-    (json.dumps({**GOOD, "features": ["list_place"]}), "'features' must list"),
-    (json.dumps({**GOOD, "weights": [0.0] * 3}), "'weights' must be 16 finite numbers"),
-    (json.dumps({**GOOD, "weights": ["a"] * 16}), "'weights' must be 16 finite numbers"),
-    (json.dumps({**GOOD, "weights": [True] * 16}), "'weights' must be 16 finite numbers"),
-    (json.dumps({**GOOD, "weights": [float("nan")] * 16}), "'weights' must be 16 finite"),
+    (json.dumps({**GOOD, "features": ["chain"]}), "'features' must list"),
+    (json.dumps({**GOOD, "features": []}), "'features' must list"),
+    (json.dumps({**GOOD, "features": "list_place"}), "'features' must list"),
+    (json.dumps({**GOOD, "features": FIRST + ["other"]}), "'features' must list"),
+    (json.dumps({**GOOD, "features": FIRST}), "'weights' must be 16 finite numbers"),
+    (json.dumps({**GOOD, "weights": [0.0] * 3}), f"'weights' must be {N} finite numbers"),
+    (json.dumps({**GOOD, "weights": ["a"] * N}), f"'weights' must be {N} finite numbers"),
+    (json.dumps({**GOOD, "weights": [True] * N}), f"'weights' must be {N} finite numbers"),
+    (json.dumps({**GOOD, "weights": [float("nan")] * N}), f"'weights' must be {N} finite"),
 ])  # fmt: skip
 def test_a_bad_scorer_file_is_refused_by_name(tmp_path, text, words):
     path = tmp_path / "scorer.json"
@@ -118,26 +167,50 @@ def test_a_bad_scorer_file_is_refused_by_name(tmp_path, text, words):
 
 
 def test_bad_weights_and_an_order_beside_a_scorer_are_refused():
-    with pytest.raises(ValueError, match="16 finite weights"):
-        OrderScorer([0.0, np.inf] + [0.0] * 14)
+    with pytest.raises(ValueError, match=f"{N} finite weights"):
+        OrderScorer([0.0, np.inf] + [0.0] * (N - 2))
     env = multicrane.parallel_env("e3s2", decisions="task")
     with pytest.raises(ValueError, match="an order or a scorer, not both"):
         TaskPrioritized(env, order=list(range(env.unwrapped.scenario.n_components)),
                         scorer=OrderScorer.list_order())  # fmt: skip
 
 
-def test_eligible_seeds_are_distinct_train_sites_within_the_size():
+def test_eligible_seeds_are_distinct_train_sites_within_the_size_and_crane_range():
     seeds = es.eligible_seeds(np.random.default_rng(0), 5, 20)
     assert len(set(seeds)) == 5
     for s in seeds:
         assert train_scenario(s).n_components <= 20
+    few = es.eligible_seeds(np.random.default_rng(0), 6, 30, cranes=(2, 3))
+    assert len(set(few)) == 6
+    for s in few:
+        site = train_scenario(s)
+        assert site.n_components <= 30 and 2 <= site.cranes <= 3
+
+
+def test_a_generation_moves_only_the_trained_features():
+    seen = []
+
+    def mapper(_, jobs, chunksize):  # a stand-in for the episodes: a ratio per probe
+        seen.extend(jobs)
+        return [[1.0 + 0.01 * i for i in range(len(job[2]))] for job in jobs]
+
+    args = es.parser().parse_args(["--pairs", "3", "--features", "4"])
+    weights = OrderScorer.list_order().weights
+    grad, ratio = es.es_step(mapper, weights, [7, 8], np.random.default_rng(0), args)
+    assert grad.shape == (4,) and np.isfinite(grad).all() and 1.0 < ratio < 1.06
+    assert [job[0] for job in seen] == [7, 8] and len(seen[0][2]) == 6
+    for probe in seen[0][2]:
+        assert probe.shape == (N,) and (probe[4:] == weights[4:]).all()
+        assert not np.array_equal(probe[:4], weights[:4])
+    with pytest.raises(SystemExit):
+        es.main(["--out", "x", "--features", str(N + 1)])
 
 
 def test_the_trainer_is_a_function_of_its_seed(tmp_path):
     def run(out, workers):
         es.main(["--out", str(out), "--seed", "3", "--generations", "2", "--pairs", "1",
                  "--sites", "2", "--val-sites", "2", "--val-every", "1", "--max-components",
-                 "16", "--workers", str(workers)])  # fmt: skip
+                 "16", "--cranes", "2", "4", "--workers", str(workers)])  # fmt: skip
         return OrderScorer.load(out / "scorer.json"), (out / "log.jsonl").read_text()
 
     one, log = run(tmp_path / "a", 1)
@@ -148,6 +221,8 @@ def test_the_trainer_is_a_function_of_its_seed(tmp_path):
     assert rows[0]["validation"] == 1.0  # the start is the plain rule itself
     assert all(0 < r["ratio"] <= 2 for r in rows[1:])
     assert one.meta["rank"] == "chain" and one.meta["generation"] in (0, 1, 2)
+    assert one.meta["cranes"] == [2, 4] and one.meta["max_components"] == 16
+    assert one.meta["features"] == N
     assert one.meta["validation_ratio"] == min(r["validation"] for r in rows)
     table = es.curves([str(tmp_path / "a"), str(tmp_path / "b")]).splitlines()
     assert table[0].endswith("| a | b |") and len(table) == 2 + 3
