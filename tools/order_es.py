@@ -19,7 +19,10 @@ play ``--val-sites`` other train sites; the best so far is written to ``OUT/scor
 meta: the rank, the seed, the generation, the validation ratio, the training range), and every
 generation to ``OUT/log.jsonl`` (episodes played, wall seconds, the generation's mean ratio,
 the validation ratio). All draws come from ``--seed``; ``--workers`` processes play the
-episodes (the result does not depend on their number). Base install only.
+episodes (the result does not depend on their number). ``--features K`` trains the first K
+features only (16: the first recipe's). ``--fit-set NAME`` is a diagnostic, never a held-out
+result: the scorer fitted to a held-out set's own episodes, to see how far it can go there.
+Base install only.
 """
 
 from __future__ import annotations
@@ -34,8 +37,15 @@ import numpy as np
 
 import multicrane
 from multicrane.episodes.rollout import run_episode
-from multicrane.scenario.named_sets import TRAIN_SEEDS, component_count, train_member
+from multicrane.scenario.named_sets import (
+    TRAIN_SEEDS,
+    component_count,
+    members,
+    scenario_set,
+    train_member,
+)
 from multicrane.tasks.order_scorer import FEATURES, OrderScorer
+from multicrane.training.seeding import evaluation_seeds
 from policies.task_planners import TaskPrioritized
 
 
@@ -55,15 +65,26 @@ def eligible_seeds(
     return out
 
 
-def site_ratios(site_seed: int, rank: str, weights: list[np.ndarray]) -> list[float]:
-    """On one train site (reset seed: the site's), each weight vector's makespan over the
-    rule's own with the scenario's order (an unfinished episode: 2)."""
-    env = multicrane.parallel_env(train_member(site_seed).scenario(), decisions="task")
-    base = run_episode(env, TaskPrioritized(env, rank=rank), site_seed)["makespan"]
+def site_episode(site: int | str):
+    """A site's scenario and reset seed: a train seed (reset seed: the site's own), or
+    ``NAME:I``, member I of a held-out set, played from the first evaluation seed (the
+    episode ``multicrane evaluate --episodes 1`` plays)."""
+    if isinstance(site, str):
+        name, index = site.rsplit(":", 1)
+        return scenario_set(name)[int(index)][1], evaluation_seeds(1)[0]
+    return train_member(site).scenario(), site
+
+
+def site_ratios(site: int | str, rank: str, weights: list[np.ndarray]) -> list[float]:
+    """On one site (``site_episode``), each weight vector's makespan over the rule's own
+    with the scenario's order (an unfinished episode: 2)."""
+    scenario, seed = site_episode(site)
+    env = multicrane.parallel_env(scenario, decisions="task")
+    base = run_episode(env, TaskPrioritized(env, rank=rank), seed)["makespan"]
     out = []
     for w in weights:
         span = run_episode(env, TaskPrioritized(env, rank=rank, scorer=OrderScorer(w)),
-                           site_seed)["makespan"]  # fmt: skip
+                           seed)["makespan"]  # fmt: skip
         out.append(2.0 if span is None or base is None else span / base)
     return out
 
@@ -86,13 +107,29 @@ def es_step(mapper, weights, sites, rng, args) -> tuple[np.ndarray, float]:
     return grad / (2 * args.pairs * args.sigma * spread), float(ratios.mean())
 
 
+def site_draws(args, rng: np.random.Generator):
+    """The validation sites and a function drawing a generation's sites: ``train`` seeds
+    within the limits, or with ``--fit-set`` every member validates and each generation
+    draws ``--sites`` of them."""
+    if args.fit_set:
+        every = [f"{args.fit_set}:{i}" for i in range(len(members(args.fit_set)))]
+
+        def some() -> list[str]:
+            picked = rng.choice(len(every), min(args.sites, len(every)), replace=False)
+            return [every[i] for i in sorted(picked.tolist())]
+
+        return every, some
+    limits = (args.max_components, tuple(args.cranes))
+    val_sites = eligible_seeds(np.random.default_rng([args.seed, 1]), args.val_sites, *limits)
+    return val_sites, lambda: eligible_seeds(rng, args.sites, *limits)
+
+
 def train(args) -> OrderScorer:
     """The ES loop of the module doc; returns the best scorer by validation (also saved)."""
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(args.seed)
-    draw = (args.max_components, tuple(args.cranes))
-    val_sites = eligible_seeds(np.random.default_rng([args.seed, 1]), args.val_sites, *draw)
+    val_sites, draw = site_draws(args, rng)
     weights = OrderScorer.list_order().weights.copy()
     m, v = np.zeros(args.features), np.zeros(args.features)
     best, episodes, start = (np.inf, weights.copy(), 0), 0, time.perf_counter()
@@ -107,7 +144,7 @@ def train(args) -> OrderScorer:
         for gen in range(args.generations + 1):
             row = {"generation": gen}
             if gen:
-                sites = eligible_seeds(rng, args.sites, *draw)
+                sites = draw()
                 grad, row["ratio"] = es_step(mapper, weights, sites, rng, args)
                 episodes += args.sites * (2 * args.pairs + 1)
                 m = 0.9 * m + 0.1 * grad
@@ -127,7 +164,8 @@ def train(args) -> OrderScorer:
         pool.close()
     meta = {"rank": args.rank, "seed": args.seed, "generation": best[2],
             "validation_ratio": best[0], "max_components": args.max_components,
-            "cranes": list(args.cranes), "features": args.features}  # fmt: skip
+            "cranes": list(args.cranes), "features": args.features,
+            "fit_set": args.fit_set}  # fmt: skip
     scorer = OrderScorer(best[1], meta)
     scorer.save(out / "scorer.json")
     return scorer
@@ -154,6 +192,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--features", type=int, default=len(FEATURES), metavar="K",
                    help=f"train the first K of the {len(FEATURES)} features, the rest stay 0 "
                         "(16: the features before the yard and crane terms)")
+    p.add_argument("--fit-set", metavar="NAME",
+                   help="a diagnostic, never a held-out result: fit to the sites of this "
+                        "held-out set (test-small, ...) and validate on all of them, the "
+                        "episodes multicrane evaluate plays: how far this scorer can go there")
     return p
 
 
@@ -181,6 +223,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if not 1 <= args.features <= len(FEATURES):
         parser().error(f"--features must be 1..{len(FEATURES)}, got {args.features}")
+    if args.fit_set:
+        try:
+            members(args.fit_set)
+        except ValueError as exc:
+            parser().error(f"--fit-set: {exc}")
     if args.curves:
         print(curves(args.curves))
         return 0

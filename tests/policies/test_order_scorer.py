@@ -14,7 +14,7 @@ from conftest import load_tool
 import multicrane
 import policies
 from multicrane.episodes.rollout import run_episode
-from multicrane.scenario.named_sets import train_scenario
+from multicrane.scenario.named_sets import members, train_member, train_scenario
 from multicrane.tasks.order_scorer import (
     FEATURES,
     OrderScorer,
@@ -204,6 +204,20 @@ def test_a_generation_moves_only_the_trained_features():
         assert not np.array_equal(probe[:4], weights[:4])
     with pytest.raises(SystemExit):
         es.main(["--out", "x", "--features", str(N + 1)])
+
+
+def test_a_fit_set_draws_its_own_members_played_from_the_evaluation_seed():
+    args = es.parser().parse_args(["--fit-set", "test-small", "--sites", "5"])
+    val_sites, draw = es.site_draws(args, np.random.default_rng(0))
+    assert val_sites == [f"test-small:{i}" for i in range(50)]
+    first, second = draw(), draw()
+    assert len(set(first)) == 5 and set(first) <= set(val_sites) and first != second
+    scenario, seed = es.site_episode("test-small:3")
+    assert scenario == members("test-small")[3].scenario() and seed == 1_000_000
+    scenario, seed = es.site_episode(17)
+    assert scenario == train_member(17).scenario() and seed == 17
+    with pytest.raises(SystemExit):
+        es.main(["--out", "x", "--fit-set", "test-nothing"])
 
 
 def test_the_trainer_is_a_function_of_its_seed(tmp_path):
