@@ -146,7 +146,7 @@ def train(args) -> OrderScorer:
             if gen:
                 sites = draw()
                 grad, row["ratio"] = es_step(mapper, weights, sites, rng, args)
-                episodes += args.sites * (2 * args.pairs + 1)
+                episodes += len(sites) * (2 * args.pairs + 1)
                 m = 0.9 * m + 0.1 * grad
                 v = 0.999 * v + 0.001 * grad**2
                 step = (m / (1 - 0.9**gen)) / (np.sqrt(v / (1 - 0.999**gen)) + 1e-8)

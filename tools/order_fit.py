@@ -36,7 +36,7 @@ from order_probe import start_order  # noqa: E402
 
 
 def component_features(env) -> np.ndarray:
-    """(C, 16) float32: every component's static features (``multicrane.tasks.order_scorer``)."""
+    """(C, len(FEATURES)) float32: every component's static features (``order_scorer``)."""
     base = env.unwrapped
     return features_of(base.mode.task_book(), base.scenario)
 
