@@ -20,8 +20,13 @@ meta: the rank, the seed, the generation, the validation ratio, the training ran
 generation to ``OUT/log.jsonl`` (episodes played, wall seconds, the generation's mean ratio,
 the validation ratio). All draws come from ``--seed``; ``--workers`` processes play the
 episodes (the result does not depend on their number). ``--features K`` trains the first K
-features only (16: the first recipe's). ``--fit-set NAME`` is a diagnostic, never a held-out
-result: the scorer fitted to a held-out set's own episodes, to see how far it can go there.
+features only (16: the first recipe's). ``--hidden H`` adds H tanh units to the linear score
+(``OrderScorer``'s hidden layer; input weights drawn from the seed, outputs starting at 0, so
+the start is still the plain rule), trained with the rest. ``--average B`` validates, and
+keeps, a running average of the iterates instead of the iterate itself (the search is the
+same; the average smooths the generation-to-generation noise of ES). ``--fit-set NAME`` is a
+diagnostic, never a held-out result: the scorer fitted to a held-out set's own episodes, to
+see how far it can go there.
 Base install only.
 """
 
@@ -75,16 +80,15 @@ def site_episode(site: int | str):
     return train_member(site).scenario(), site
 
 
-def site_ratios(site: int | str, rank: str, weights: list[np.ndarray]) -> list[float]:
-    """On one site (``site_episode``), each weight vector's makespan over the rule's own
-    with the scenario's order (an unfinished episode: 2)."""
+def site_ratios(site: int | str, rank: str, scorers: list[OrderScorer]) -> list[float]:
+    """On one site (``site_episode``), each scorer's makespan over the rule's own with the
+    scenario's order (an unfinished episode: 2)."""
     scenario, seed = site_episode(site)
     env = multicrane.parallel_env(scenario, decisions="task")
     base = run_episode(env, TaskPrioritized(env, rank=rank), seed)["makespan"]
     out = []
-    for w in weights:
-        span = run_episode(env, TaskPrioritized(env, rank=rank, scorer=OrderScorer(w)),
-                           seed)["makespan"]  # fmt: skip
+    for scorer in scorers:
+        span = run_episode(env, TaskPrioritized(env, rank=rank, scorer=scorer), seed)["makespan"]
         out.append(2.0 if span is None or base is None else span / base)
     return out
 
@@ -93,13 +97,18 @@ def _job(args) -> list[float]:
     return site_ratios(*args)
 
 
-def es_step(mapper, weights, sites, rng, args) -> tuple[np.ndarray, float]:
-    """One generation: the gradient estimate of the mean ratio (lower is better) and the
-    generation's mean ratio."""
-    eps = rng.standard_normal((args.pairs, args.features))
-    pad = len(FEATURES) - args.features
-    probes = [weights + sign * args.sigma * np.pad(e, (0, pad)) for e in eps
-              for sign in (1.0, -1.0)]  # fmt: skip
+def es_step(mapper, scorer, trained, sites, rng, args) -> tuple[np.ndarray, float]:
+    """One generation: the gradient estimate of the mean ratio (lower is better) over the
+    parameters ``trained`` (indices into ``scorer.parameters()``) and the generation's mean
+    ratio."""
+    eps = rng.standard_normal((args.pairs, len(trained)))
+    params = scorer.parameters()
+    probes = []
+    for e in eps:
+        for sign in (1.0, -1.0):
+            probe = params.copy()
+            probe[trained] += sign * args.sigma * e
+            probes.append(scorer.with_parameters(probe))
     jobs = [(s, args.rank, probes) for s in sites]
     ratios = np.array(mapper(_job, jobs, chunksize=1)).mean(axis=0).reshape(args.pairs, 2)
     spread = max(float(ratios.std()), 1e-3)
@@ -130,32 +139,39 @@ def train(args) -> OrderScorer:
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(args.seed)
     val_sites, draw = site_draws(args, rng)
-    weights = OrderScorer.list_order().weights.copy()
-    m, v = np.zeros(args.features), np.zeros(args.features)
-    best, episodes, start = (np.inf, weights.copy(), 0), 0, time.perf_counter()
+    scorer = OrderScorer.list_order(args.hidden, np.random.default_rng([args.seed, 2]))
+    trained = scorer.trainable(args.features)
+    m, v = np.zeros(len(trained)), np.zeros(len(trained))
+    best, episodes, start = (np.inf, scorer, 0), 0, time.perf_counter()
+    mean = scorer.parameters()  # the running average of the iterates (--average)
     pool = Pool(args.workers) if args.workers > 1 else None
     mapper = pool.map if pool else (lambda f, jobs, chunksize: list(map(f, jobs)))
     with (out / "log.jsonl").open("w") as log:
 
-        def validate(w) -> float:
-            rows = mapper(_job, [(s, args.rank, [w]) for s in val_sites], chunksize=1)
+        def validate(candidate: OrderScorer) -> float:
+            jobs = [(s, args.rank, [candidate]) for s in val_sites]
+            rows = mapper(_job, jobs, chunksize=1)
             return float(np.mean(rows))
 
         for gen in range(args.generations + 1):
             row = {"generation": gen}
             if gen:
                 sites = draw()
-                grad, row["ratio"] = es_step(mapper, weights, sites, rng, args)
+                grad, row["ratio"] = es_step(mapper, scorer, trained, sites, rng, args)
                 episodes += len(sites) * (2 * args.pairs + 1)
                 m = 0.9 * m + 0.1 * grad
                 v = 0.999 * v + 0.001 * grad**2
                 step = (m / (1 - 0.9**gen)) / (np.sqrt(v / (1 - 0.999**gen)) + 1e-8)
-                weights[: args.features] -= args.lr * step
+                params = scorer.parameters()
+                params[trained] -= args.lr * step
+                scorer = scorer.with_parameters(params)
+                mean = args.average * mean + (1 - args.average) * params
             if gen % args.val_every == 0:
-                row["validation"] = validate(weights)
+                played = scorer.with_parameters(mean) if args.average else scorer
+                row["validation"] = validate(played)
                 episodes += 2 * len(val_sites)
                 if row["validation"] < best[0]:
-                    best = (row["validation"], weights.copy(), gen)
+                    best = (row["validation"], played, gen)
             row |= {"episodes": episodes, "seconds": round(time.perf_counter() - start, 1)}
             log.write(json.dumps(row) + "\n")
             log.flush()
@@ -164,11 +180,11 @@ def train(args) -> OrderScorer:
         pool.close()
     meta = {"rank": args.rank, "seed": args.seed, "generation": best[2],
             "validation_ratio": best[0], "max_components": args.max_components,
-            "cranes": list(args.cranes), "features": args.features,
-            "fit_set": args.fit_set}  # fmt: skip
-    scorer = OrderScorer(best[1], meta)
-    scorer.save(out / "scorer.json")
-    return scorer
+            "cranes": list(args.cranes), "features": args.features, "hidden": args.hidden,
+            "average": args.average, "fit_set": args.fit_set}  # fmt: skip
+    kept = best[1].with_parameters(best[1].parameters(), meta)
+    kept.save(out / "scorer.json")
+    return kept
 
 
 def parser() -> argparse.ArgumentParser:
@@ -192,6 +208,12 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--features", type=int, default=len(FEATURES), metavar="K",
                    help=f"train the first K of the {len(FEATURES)} features, the rest stay 0 "
                         "(16: the features before the yard and crane terms)")
+    p.add_argument("--hidden", type=int, default=0, metavar="H",
+                   help="H tanh units beside the linear score (0: linear; their input weights "
+                        "start from --seed, their outputs at 0)")
+    p.add_argument("--average", type=float, default=0.0, metavar="B",
+                   help="validate (and keep) the running average of the iterates, each "
+                        "generation mean = B * mean + (1 - B) * weights (0: the iterate itself)")
     p.add_argument("--fit-set", metavar="NAME",
                    help="a diagnostic, never a held-out result: fit to the sites of this "
                         "held-out set (test-small, ...) and validate on all of them, the "
@@ -223,6 +245,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if not 1 <= args.features <= len(FEATURES):
         parser().error(f"--features must be 1..{len(FEATURES)}, got {args.features}")
+    if args.hidden < 0:
+        parser().error(f"--hidden must be 0 or more, got {args.hidden}")
+    if not 0 <= args.average < 1:
+        parser().error(f"--average must be in [0, 1), got {args.average}")
     if args.fit_set:
         try:
             members(args.fit_set)

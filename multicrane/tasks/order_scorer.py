@@ -1,11 +1,13 @@
-"""A learned list order for the prioritized rule: static component features and a linear scorer.
+"""A learned list order for the prioritized rule: static component features and their scorer.
 
 The prioritized rule (``multicrane.tasks.priority_rule``) ranks ready pairs by a list order of
 the components. ``component_features(book, scenario)`` describes each component by what is
-known at reset (``FEATURES``, below); an ``OrderScorer`` weighs them, and its ``order`` lists the
-components by score, highest first, ties by the scenario's order: a list order for the rule
+known at reset (``FEATURES``, below); an ``OrderScorer`` weighs them (a linear score, and
+optionally a hidden layer of tanh units beside it), and its ``order`` lists the components by
+score, highest first, ties by the scenario's order: a list order for the rule
 (``policies.task_planners.TaskPrioritized(scorer=...)``). ``tools/order_es.py`` learns the
-weights on ``train`` sites. A scorer file is JSON data (``save`` / ``load``), never code.
+weights on ``train`` sites. A scorer file is JSON data (``save`` / ``load``), never code:
+version 1 holds the linear weights, version 2 adds the hidden layer.
 
 The features of component ``c`` (lengths scaled by the site's size or by the mean shortest
 distance): its place in the scenario's list order, its class's size and its place in its class
@@ -96,24 +98,72 @@ def component_features(book: TaskBook, scenario) -> np.ndarray:
 
 
 class OrderScorer:
-    """A linear score of ``FEATURES``; ``order`` lists components by score, highest first."""
+    """A score of ``FEATURES``: linear, plus with ``hidden`` a layer of tanh units,
+    ``x @ weights + tanh(x @ hidden["weights"].T + hidden["bias"]) @ hidden["out"]``;
+    ``order`` lists components by score, highest first."""
 
-    def __init__(self, weights, meta: dict | None = None):
+    def __init__(self, weights, meta: dict | None = None, hidden: dict | None = None):
         w = np.asarray(weights, dtype=np.float64)
         if w.shape != (len(FEATURES),) or not np.isfinite(w).all():
             got = np.asarray(weights).tolist()
             raise ValueError(f"an order scorer needs {len(FEATURES)} finite weights "
                              f"({', '.join(FEATURES)}), got {got}")  # fmt: skip
         self.weights = w
+        self.hidden = None if hidden is None else _hidden_layer(hidden)
         self.meta = dict(meta or {})
 
     @classmethod
-    def list_order(cls) -> OrderScorer:
-        """The scorer whose order is the scenario's list order (the plain rule's)."""
-        return cls([-1.0] + [0.0] * (len(FEATURES) - 1))
+    def list_order(cls, hidden_units: int = 0, rng: np.random.Generator | None = None):
+        """The scorer whose order is the scenario's list order (the plain rule's); with
+        ``hidden_units``, tanh units whose input weights are drawn from ``rng`` (standard
+        normal) and whose output weights are 0, so the order is still the list's."""
+        weights = [-1.0] + [0.0] * (len(FEATURES) - 1)
+        if not hidden_units:
+            return cls(weights)
+        rng = rng if rng is not None else np.random.default_rng(0)
+        inputs = rng.standard_normal((hidden_units, len(FEATURES)))
+        zeros = np.zeros(hidden_units)
+        return cls(weights, hidden={"weights": inputs, "bias": zeros, "out": zeros})
+
+    @property
+    def hidden_units(self) -> int:
+        return 0 if self.hidden is None else len(self.hidden["out"])
+
+    def parameters(self) -> np.ndarray:
+        """Every weight in one vector: the linear weights, then the hidden layer's input
+        weights (row by row), biases and output weights."""
+        if self.hidden is None:
+            return self.weights.copy()
+        h = self.hidden
+        return np.concatenate([self.weights, h["weights"].ravel(), h["bias"], h["out"]])
+
+    def with_parameters(self, vector, meta: dict | None = None) -> OrderScorer:
+        """A scorer of this shape holding ``vector`` (``parameters``' layout)."""
+        v, n, k = np.asarray(vector, dtype=np.float64), len(FEATURES), self.hidden_units
+        if v.shape != (n + k * (n + 2),):
+            raise ValueError(f"{n + k * (n + 2)} parameters expected, got {v.shape}")
+        hidden = {"weights": v[n : n + k * n].reshape(k, n), "bias": v[n + k * n : n + k * n + k],
+                  "out": v[n + k * n + k :]} if k else None  # fmt: skip
+        return OrderScorer(v[:n], meta, hidden)
+
+    def trainable(self, features: int) -> np.ndarray:
+        """The indices into ``parameters`` that use only the first ``features`` features:
+        their linear weights, those inputs of the hidden units, the biases and outputs."""
+        n, k = len(FEATURES), self.hidden_units
+        mask = np.zeros(n + k * (n + 2), dtype=bool)
+        mask[:features] = True
+        if k:
+            mask[n : n + k * n].reshape(k, n)[:, :features] = True
+            mask[n + k * n :] = True
+        return np.flatnonzero(mask)
 
     def scores(self, features: np.ndarray) -> np.ndarray:
-        return np.asarray(features, dtype=np.float64) @ self.weights
+        x = np.asarray(features, dtype=np.float64)
+        s = x @ self.weights
+        if self.hidden is not None:
+            h = self.hidden
+            s = s + np.tanh(x @ h["weights"].T + h["bias"]) @ h["out"]
+        return s
 
     def order(self, features: np.ndarray, scenario) -> list[int]:
         """The components by score, highest first; ties in the scenario's list order."""
@@ -121,8 +171,11 @@ class OrderScorer:
         return sorted(scenario.order, key=lambda c: -s[c])
 
     def save(self, path) -> None:
-        body = {"format": FORMAT, "version": 1, "features": list(FEATURES),
-                "weights": self.weights.tolist(), "meta": self.meta}  # fmt: skip
+        body = {"format": FORMAT, "version": 1 if self.hidden is None else 2,
+                "features": list(FEATURES), "weights": self.weights.tolist()}  # fmt: skip
+        if self.hidden is not None:
+            body["hidden"] = {k: v.tolist() for k, v in self.hidden.items()}
+        body["meta"] = self.meta
         Path(path).write_text(json.dumps(body, indent=1) + "\n")
 
     @classmethod
@@ -133,29 +186,64 @@ class OrderScorer:
         path = Path(path)
         if path.is_dir():
             path = path / "scorer.json"
+        where = f"order scorer {str(path)!r}"
         try:
             body = json.loads(path.read_text())
         except OSError as exc:
-            raise ValueError(f"order scorer {str(path)!r}: cannot read it "
-                             f"({exc.strerror})") from None  # fmt: skip
+            raise ValueError(f"{where}: cannot read it ({exc.strerror})") from None
         except json.JSONDecodeError as exc:
-            raise ValueError(f"order scorer {str(path)!r}: not JSON ({exc.msg}, line "
-                             f"{exc.lineno})") from None  # fmt: skip
+            raise ValueError(f"{where}: not JSON ({exc.msg}, line {exc.lineno})") from None
         if not isinstance(body, dict) or body.get("format") != FORMAT:
-            raise ValueError(f"order scorer {str(path)!r}: 'format' must be {FORMAT!r}")
+            raise ValueError(f"{where}: 'format' must be {FORMAT!r}")
+        if body.get("version", 1) not in (1, 2):
+            raise ValueError(f"{where}: 'version' must be 1 or 2, got {body.get('version')!r}")
         named = body.get("features")
         if not isinstance(named, list) or not named or named != list(FEATURES[: len(named)]):
-            raise ValueError(f"order scorer {str(path)!r}: 'features' must list "
-                             f"{', '.join(FEATURES)} (or the first of them, in this order), "
-                             f"got {named!r}")  # fmt: skip
-        weights = body.get("weights")
-        ok = isinstance(weights, list) and all(
-            isinstance(w, int | float) and not isinstance(w, bool) and math.isfinite(w)
-            for w in weights
-        )
-        if not ok or len(weights) != len(named):
-            raise ValueError(f"order scorer {str(path)!r}: 'weights' must be {len(named)} "
-                             f"finite numbers, one per feature, got {weights!r}")  # fmt: skip
+            raise ValueError(f"{where}: 'features' must list {', '.join(FEATURES)} (or the "
+                             f"first of them, in this order), got {named!r}")  # fmt: skip
+        weights = _numbers(body.get("weights"), len(named), f"{where}: 'weights'")
+        pad = len(FEATURES) - len(named)
+        hidden = body.get("hidden")
+        if hidden is not None:
+            hidden = _read_hidden(hidden, len(named), f"{where}: 'hidden'")
+            hidden["weights"] = np.pad(hidden["weights"], ((0, 0), (0, pad)))
         meta = body.get("meta", {})
-        padded = list(weights) + [0.0] * (len(FEATURES) - len(named))
-        return cls(padded, meta if isinstance(meta, dict) else {})
+        padded = list(weights) + [0.0] * pad
+        return cls(padded, meta if isinstance(meta, dict) else {}, hidden)
+
+
+def _numbers(value, count: int, where: str) -> list[float]:
+    """``value`` if it is a list of ``count`` finite numbers, else a ``ValueError``."""
+    ok = isinstance(value, list) and len(value) == count and all(
+        isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+        for x in value
+    )  # fmt: skip
+    if not ok:
+        raise ValueError(f"{where} must be {count} finite numbers, got {value!r}")
+    return [float(x) for x in value]
+
+
+def _read_hidden(hidden, named: int, where: str) -> dict:
+    """The hidden layer of a scorer file: ``weights`` (one row of ``named`` numbers per
+    unit), ``bias`` and ``out`` (one number per unit)."""
+    rows = hidden.get("weights") if isinstance(hidden, dict) else None
+    if not isinstance(rows, list) or not rows:
+        raise ValueError(f"{where} must hold 'weights' (a list of rows, one per unit), "
+                         f"'bias' and 'out', got {hidden!r}")  # fmt: skip
+    units = len(rows)
+    matrix = [_numbers(r, named, f"{where} 'weights' row {i}") for i, r in enumerate(rows)]
+    return {"weights": np.array(matrix),
+            "bias": np.array(_numbers(hidden.get("bias"), units, f"{where} 'bias'")),
+            "out": np.array(_numbers(hidden.get("out"), units, f"{where} 'out'"))}  # fmt: skip
+
+
+def _hidden_layer(hidden: dict) -> dict:
+    """The hidden layer as float arrays, shapes checked: ``weights`` (H, FEATURES),
+    ``bias`` and ``out`` (H,), all finite."""
+    w, b, o = (np.asarray(hidden[k], dtype=np.float64) for k in ("weights", "bias", "out"))
+    units = len(o)
+    fine = w.shape == (units, len(FEATURES)) and b.shape == o.shape == (units,) and units
+    if not fine or not all(np.isfinite(a).all() for a in (w, b, o)):
+        raise ValueError(f"a hidden layer needs weights ({units}, {len(FEATURES)}), bias and "
+                         f"out ({units},), all finite, got {w.shape}, {b.shape}, {o.shape}")
+    return {"weights": w, "bias": b, "out": o}

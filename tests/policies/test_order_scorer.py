@@ -187,23 +187,33 @@ def test_eligible_seeds_are_distinct_train_sites_within_the_size_and_crane_range
         assert site.n_components <= 30 and 2 <= site.cranes <= 3
 
 
-def test_a_generation_moves_only_the_trained_features():
+@pytest.mark.parametrize("hidden", [0, 2])
+def test_a_generation_moves_only_the_trained_features(hidden):
     seen = []
 
     def mapper(_, jobs, chunksize):  # a stand-in for the episodes: a ratio per probe
         seen.extend(jobs)
         return [[1.0 + 0.01 * i for i in range(len(job[2]))] for job in jobs]
 
-    args = es.parser().parse_args(["--pairs", "3", "--features", "4"])
-    weights = OrderScorer.list_order().weights
-    grad, ratio = es.es_step(mapper, weights, [7, 8], np.random.default_rng(0), args)
-    assert grad.shape == (4,) and np.isfinite(grad).all() and 1.0 < ratio < 1.06
+    args = es.parser().parse_args(["--pairs", "3", "--features", "4", "--hidden", str(hidden)])
+    scorer = OrderScorer.list_order(hidden, np.random.default_rng(1))
+    trained = scorer.trainable(4)
+    assert len(trained) == 4 + hidden * (4 + 2)
+    grad, ratio = es.es_step(mapper, scorer, trained, [7, 8], np.random.default_rng(0), args)
+    assert grad.shape == trained.shape and np.isfinite(grad).all() and 1.0 < ratio < 1.06
     assert [job[0] for job in seen] == [7, 8] and len(seen[0][2]) == 6
+    start, fixed = scorer.parameters(), np.setdiff1d(np.arange(len(scorer.parameters())), trained)
     for probe in seen[0][2]:
-        assert probe.shape == (N,) and (probe[4:] == weights[4:]).all()
-        assert not np.array_equal(probe[:4], weights[:4])
+        moved = probe.parameters()
+        assert probe.hidden_units == hidden and (moved[fixed] == start[fixed]).all()
+        assert (moved[trained] != start[trained]).all()
+    if hidden:  # the inputs of features 4.. to the hidden units stay as drawn
+        assert np.array_equal(seen[0][2][0].hidden["weights"][:, 4:],
+                              scorer.hidden["weights"][:, 4:])  # fmt: skip
     with pytest.raises(SystemExit):
         es.main(["--out", "x", "--features", str(N + 1)])
+    with pytest.raises(SystemExit):
+        es.main(["--out", "x", "--hidden", "-1"])
 
 
 def test_a_fit_set_draws_its_own_members_played_from_the_evaluation_seed():
@@ -220,16 +230,19 @@ def test_a_fit_set_draws_its_own_members_played_from_the_evaluation_seed():
         es.main(["--out", "x", "--fit-set", "test-nothing"])
 
 
-def test_the_trainer_is_a_function_of_its_seed(tmp_path):
+@pytest.mark.parametrize("hidden", [0, 2])
+def test_the_trainer_is_a_function_of_its_seed(tmp_path, hidden):
     def run(out, workers):
         es.main(["--out", str(out), "--seed", "3", "--generations", "2", "--pairs", "1",
                  "--sites", "2", "--val-sites", "2", "--val-every", "1", "--max-components",
-                 "16", "--cranes", "2", "4", "--workers", str(workers)])  # fmt: skip
+                 "16", "--cranes", "2", "4", "--workers", str(workers), "--hidden",
+                 str(hidden), "--lr", "0.3"])  # fmt: skip
         return OrderScorer.load(out / "scorer.json"), (out / "log.jsonl").read_text()
 
     one, log = run(tmp_path / "a", 1)
     two, _ = run(tmp_path / "b", 1)
-    assert np.array_equal(one.weights, two.weights)
+    assert np.array_equal(one.parameters(), two.parameters())
+    assert one.hidden_units == hidden and one.meta["hidden"] == hidden
     rows = [json.loads(line) for line in log.splitlines()]
     assert [r["generation"] for r in rows] == [0, 1, 2]
     assert rows[0]["validation"] == 1.0  # the start is the plain rule itself
@@ -265,3 +278,86 @@ def test_the_guard_is_refused_on_a_site_with_events():
     env.reset(seed=0)
     with pytest.raises(ValueError, match="future site events"):
         TaskPrioritized(env, rank="chain", scorer=OrderScorer.list_order(), guard=True)
+
+
+def test_a_hidden_layer_scores_by_its_formula_and_starts_at_the_list_order():
+    _, base = _reset("hall-4c", 4, 5)
+    features = component_features(base.mode.task_book(), base.scenario)
+    start = OrderScorer.list_order(3, np.random.default_rng(0))
+    assert start.hidden_units == 3 and not start.hidden["out"].any()
+    assert start.order(features, base.scenario) == list(base.scenario.order)  # outputs 0
+    rng = np.random.default_rng(4)
+    scorer = start.with_parameters(rng.standard_normal(len(start.parameters())))
+    h = scorer.hidden
+    by_hand = features @ scorer.weights + np.tanh(features @ h["weights"].T + h["bias"]) @ h["out"]
+    assert np.allclose(scorer.scores(features), by_hand)
+    assert np.array_equal(scorer.with_parameters(scorer.parameters()).parameters(),
+                          scorer.parameters())  # fmt: skip
+    with pytest.raises(ValueError, match="parameters expected"):
+        scorer.with_parameters(scorer.parameters()[:-1])
+    with pytest.raises(ValueError, match="hidden layer needs"):
+        OrderScorer(scorer.weights, hidden={**h, "bias": np.zeros(2)})
+    with pytest.raises(ValueError, match="hidden layer needs"):
+        OrderScorer(scorer.weights, hidden={**h, "out": np.full(3, np.nan)})
+
+
+def test_a_hidden_scorer_file_round_trips_and_pads_a_file_of_the_first_features(tmp_path):
+    rng = np.random.default_rng(2)
+    start = OrderScorer.list_order(2, rng)
+    scorer = start.with_parameters(rng.standard_normal(len(start.parameters())), {"hidden": 2})
+    scorer.save(tmp_path / "scorer.json")
+    body = json.loads((tmp_path / "scorer.json").read_text())
+    assert body["version"] == 2 and len(body["hidden"]["weights"]) == 2
+    loaded = OrderScorer.load(tmp_path)
+    assert np.array_equal(loaded.parameters(), scorer.parameters()) and loaded.meta == {"hidden": 2}
+    short = {**GOOD, "version": 2, "features": FIRST, "weights": [0.5] * 16,
+             "hidden": {"weights": [[1.0] * 16], "bias": [0.1], "out": [2.0]}}  # fmt: skip
+    (tmp_path / "short.json").write_text(json.dumps(short))
+    padded = OrderScorer.load(tmp_path / "short.json")
+    assert padded.hidden["weights"].shape == (1, N) and not padded.hidden["weights"][:, 16:].any()
+    _, base = _reset("hall-4c", 4, 2)
+    x = component_features(base.mode.task_book(), base.scenario)[:, :16]
+    assert np.allclose(padded.scores(np.pad(x, ((0, 0), (0, N - 16)))),
+                       x @ np.full(16, 0.5) + 2.0 * np.tanh(x.sum(axis=1) + 0.1))  # fmt: skip
+
+
+HIDDEN = {"weights": [[0.0] * N], "bias": [0.0], "out": [1.0]}
+
+
+@pytest.mark.parametrize(("hidden", "words"), [
+    ([1, 2], "'hidden' must hold 'weights'"),
+    ({"weights": []}, "'hidden' must hold 'weights'"),
+    ({**HIDDEN, "weights": [[0.0] * 3]}, "'hidden' 'weights' row 0 must be"),
+    ({**HIDDEN, "weights": [[0.0] * N, "x"]}, "'hidden' 'weights' row 1 must be"),
+    ({**HIDDEN, "bias": []}, "'hidden' 'bias' must be 1 finite"),
+    ({k: v for k, v in HIDDEN.items() if k != "out"}, "'hidden' 'out' must be 1 finite"),
+    ({**HIDDEN, "out": [float("inf")]}, "'hidden' 'out' must be 1 finite"),
+])  # fmt: skip
+def test_a_bad_hidden_layer_is_refused_by_name(tmp_path, hidden, words):
+    path = tmp_path / "scorer.json"
+    path.write_text(json.dumps({**GOOD, "version": 2, "hidden": hidden}))
+    with pytest.raises(ValueError, match="order scorer") as err:
+        OrderScorer.load(path)
+    assert words in str(err.value) and str(path) in str(err.value)
+    path.write_text(json.dumps({**GOOD, "version": 3}))
+    with pytest.raises(ValueError, match="'version' must be 1 or 2"):
+        OrderScorer.load(path)
+
+
+def test_averaging_the_iterates_changes_what_is_validated_not_the_search(tmp_path):
+    def run(out, average):
+        es.main(["--out", str(out), "--seed", "5", "--generations", "3", "--pairs", "1",
+                 "--sites", "2", "--val-sites", "3", "--val-every", "1", "--max-components",
+                 "16", "--lr", "0.5", "--average", str(average), "--workers", "1"])  # fmt: skip
+        rows = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+        return OrderScorer.load(out), rows
+
+    plain, plain_rows = run(tmp_path / "a", 0.0)
+    mean, mean_rows = run(tmp_path / "b", 0.5)
+    assert [r.get("ratio") for r in mean_rows] == [r.get("ratio") for r in plain_rows]
+    assert mean.meta["average"] == 0.5 and plain.meta["average"] == 0.0
+    assert mean.meta["validation_ratio"] == min(r["validation"] for r in mean_rows)
+    if mean.meta["generation"] > 0:  # an average of the start and the iterates: not the start
+        assert not np.array_equal(mean.weights, OrderScorer.list_order().weights)
+    with pytest.raises(SystemExit):
+        es.main(["--out", "x", "--average", "1"])
