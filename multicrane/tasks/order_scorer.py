@@ -113,7 +113,8 @@ class OrderScorer:
         self.meta = dict(meta or {})
 
     @classmethod
-    def list_order(cls, hidden_units: int = 0, rng: np.random.Generator | None = None):
+    def list_order(cls, hidden_units: int = 0,
+                   rng: np.random.Generator | None = None) -> OrderScorer:  # fmt: skip
         """The scorer whose order is the scenario's list order (the plain rule's); with
         ``hidden_units``, tanh units whose input weights are drawn from ``rng`` (standard
         normal) and whose output weights are 0, so the order is still the list's."""
@@ -240,8 +241,12 @@ def _read_hidden(hidden, named: int, where: str) -> dict:
 def _hidden_layer(hidden: dict) -> dict:
     """The hidden layer as float arrays, shapes checked: ``weights`` (H, FEATURES),
     ``bias`` and ``out`` (H,), all finite."""
-    w, b, o = (np.asarray(hidden[k], dtype=np.float64) for k in ("weights", "bias", "out"))
-    units = len(o)
+    keys = ("weights", "bias", "out")
+    missing = [k for k in keys if not isinstance(hidden, dict) or k not in hidden]
+    if missing:
+        raise ValueError(f"a hidden layer needs 'weights', 'bias' and 'out', missing {missing}")
+    w, b, o = (np.asarray(hidden[k], dtype=np.float64) for k in keys)
+    units = o.shape[0] if o.ndim == 1 else 0
     fine = w.shape == (units, len(FEATURES)) and b.shape == o.shape == (units,) and units
     if not fine or not all(np.isfinite(a).all() for a in (w, b, o)):
         raise ValueError(f"a hidden layer needs weights ({units}, {len(FEATURES)}), bias and "

@@ -299,6 +299,10 @@ def test_a_hidden_layer_scores_by_its_formula_and_starts_at_the_list_order():
         OrderScorer(scorer.weights, hidden={**h, "bias": np.zeros(2)})
     with pytest.raises(ValueError, match="hidden layer needs"):
         OrderScorer(scorer.weights, hidden={**h, "out": np.full(3, np.nan)})
+    with pytest.raises(ValueError, match="missing \\['bias'\\]"):
+        OrderScorer(scorer.weights, hidden={"weights": h["weights"], "out": h["out"]})
+    with pytest.raises(ValueError, match="hidden layer needs"):
+        OrderScorer(scorer.weights, hidden={**h, "out": 1.0})
 
 
 def test_a_hidden_scorer_file_round_trips_and_pads_a_file_of_the_first_features(tmp_path):
