@@ -5,28 +5,28 @@
         --policy prioritized:rank=chain prioritized:rank=chain,scorer=runs/order-es21/es-s0
 
 The policy is ``TaskPrioritized(rank=--rank, scorer=...)``: the rule with the components in the
-order of a linear score of their static features (``multicrane.tasks.order_scorer``), computed
-once at reset; nothing is searched when it plays beyond what the rule itself asks of the
-carrier. The weights start at the scenario's list order (the plain rule) and follow
-OpenAI-style evolution strategies: each generation draws ``--sites`` sites of the ``train``
-distribution with at most ``--max-components`` components and ``--cranes`` cranes (the reset
-seed is the site's seed) and ``--pairs`` Gaussian directions; each direction is played at plus
-and minus ``--sigma`` on every site; the fitness is the mean over the sites of the makespan
-divided by the rule's own (``rank=--rank``, the scenario's order; an unfinished episode counts
-twice the rule's); the difference of each pair, over the spread of the generation, weighs its
-direction, and Adam (``--lr``) takes the step. Every ``--val-every`` generations the weights
-play ``--val-sites`` other train sites; the best so far is written to ``OUT/scorer.json`` (its
-meta: the rank, the seed, the generation, the validation ratio, the training range), and every
-generation to ``OUT/log.jsonl`` (episodes played, wall seconds, the generation's mean ratio,
-the validation ratio). All draws come from ``--seed``; ``--workers`` processes play the
-episodes (the result does not depend on their number). ``--features K`` trains the first K
-features only (16: the first recipe's). ``--hidden H`` adds H tanh units to the linear score
-(``OrderScorer``'s hidden layer; input weights drawn from the seed, outputs starting at 0, so
-the start is still the plain rule), trained with the rest. ``--average B`` validates, and
-keeps, a running average of the iterates instead of the iterate itself (the search is the
-same; the average smooths the generation-to-generation noise of ES). ``--fit-set NAME`` is a
-diagnostic, never a held-out result: the scorer fitted to a held-out set's own episodes, to
-see how far it can go there.
+order of a score of their static features (``multicrane.tasks.order_scorer``: linear, or with
+``--hidden`` tanh units beside it), computed once at reset; nothing is searched when it plays
+beyond what the rule itself asks of the carrier. The weights start at the scenario's list order
+(the plain rule) and follow OpenAI-style evolution strategies: each generation draws
+``--sites`` sites of the ``train`` distribution with at most ``--max-components`` components
+and ``--cranes`` cranes (the reset seed is the site's seed) and ``--pairs`` Gaussian
+directions; each direction is played at plus and minus ``--sigma`` on every site; the fitness
+is the mean over the sites of the makespan divided by the rule's own (``rank=--rank``, the
+scenario's order; an unfinished episode counts twice the rule's); the difference of each pair,
+over the spread of the generation, weighs its direction, and Adam (``--lr``) takes the step.
+Every ``--val-every`` generations the weights play ``--val-sites`` other train sites; the best
+of them is written to ``OUT/scorer.json`` at the end (its meta: the rank, the seed, the
+generation, the validation ratio, the training range), and every generation to
+``OUT/log.jsonl`` (episodes played, wall seconds, the generation's mean ratio, the validation
+ratio). All draws come from ``--seed``; ``--workers`` processes play the episodes (the result
+does not depend on their number). ``--features K`` trains the first K features only (16: the
+first recipe's). ``--hidden H`` adds H tanh units to the linear score (``OrderScorer``'s hidden
+layer; input weights drawn from the seed, outputs starting at 0, so the start is still the
+plain rule), trained with the rest. ``--average B`` validates, and keeps, a running average of
+the iterates instead of the iterate itself (the search is the same; the average smooths the
+generation-to-generation noise of ES). ``--fit-set NAME`` is a diagnostic, never a held-out
+result: the scorer fitted to a held-out set's own episodes, to see how far it can go there.
 Base install only.
 """
 
@@ -262,7 +262,8 @@ def main(argv: list[str] | None = None) -> int:
     scorer = train(args)
     named = ", ".join(f"{n} {w:+.3f}" for n, w in zip(FEATURES, scorer.weights, strict=True))
     print(f"best validation ratio {scorer.meta['validation_ratio']:.4f} at generation "
-          f"{scorer.meta['generation']}; weights: {named}\n"
+          f"{scorer.meta['generation']}; weights: {named}"
+          f"{f' and {scorer.hidden_units} hidden units' if scorer.hidden_units else ''}\n"
           f"play it: --policy prioritized:rank={args.rank},scorer={args.out}")  # fmt: skip
     return 0
 
