@@ -17,7 +17,13 @@ continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
   the site with this order and with the plain planner's (``rank="list"``, the scenario's
   order) and keep the shorter (ties: this order); on a site without events the copy's
   episode is the real one, so the guarded rule is never longer than the planner (it costs
-  two episodes at reset; refused on sites with events).
+  two episodes at reset; refused on sites with events). ``samples``: with a scorer, a search
+  at that decision over the learned policy's own orders: the scorer's order and
+  ``samples - 1`` orders drawn from the Plackett-Luce distribution of its scores
+  (``OrderScorer.sampled_orders``, ``temperature``; the draws from the policy's seed) are
+  each played on a copy of the site and the shortest is kept (ties: the earlier; with
+  ``guard`` the planner's order is one more candidate); it costs ``samples`` episodes at reset
+  and, like the guard, is refused on sites with events.
 - ``TaskGreedy``: each idle crane, in crane order, takes the allowed task with the shortest
   static path (ties: the lower task number), without a search (a blocked task is held and
   retried by the environment).
@@ -51,19 +57,24 @@ class TaskPrioritized:
     """The prioritized rule over tasks (see the module doc); ``stats`` are the carrier's."""
 
     def __init__(self, env, seed=None, max_searches: int = 8, rank: str = "list", order=None,
-                 scorer=None, guard: bool = False):  # fmt: skip
+                 scorer=None, guard: bool = False, samples: int = 1,
+                 temperature: float = 0.5):  # fmt: skip
         self.env, _ = _book(env)
         self.seed = seed
         self.max_searches = max_searches
         self.rank = check_rank(rank)
         if order is not None and scorer is not None:
             raise ValueError("give the rule an order or a scorer, not both")
-        if guard and has_events(self.env):
-            raise ValueError("guard plays copies of the environment, which hold the episode's "
-                             "future site events: use it on sites without events")  # fmt: skip
+        self.samples, self.temperature = _check_sampling(samples, temperature, scorer)
+        for name, asked in (("guard", guard), ("samples", self.samples > 1)):
+            if asked and has_events(self.env):
+                raise ValueError(f"{name} plays copies of the environment, which hold the "
+                                 "episode's future site events: use it on sites without "
+                                 "events")  # fmt: skip
         if isinstance(scorer, str | Path):
             scorer = OrderScorer.load(scorer)
         self.scorer, self.guard = scorer, bool(guard)
+        self.rng = np.random.default_rng(seed)
         self.order = None if order is None else list(order)
         self._list_rank = list_ranks(self.env.scenario, order)
         self._rank = self.rank
@@ -82,15 +93,22 @@ class TaskPrioritized:
                 for a, p in zip(self.env.possible_agents, chosen, strict=True)}  # fmt: skip
 
     def _plan_episode(self, book) -> None:
-        """At an episode's first decision: the scorer's order, and with ``guard`` the shorter
-        of it and the plain planner's on copies of the site."""
+        """At an episode's first decision: the scorer's order, or with ``samples`` and
+        ``guard`` the shortest of the candidates played on copies of the site."""
         scenario = self.env.scenario
-        order = self.order
+        orders = [self.order]
         if self.scorer is not None:
-            order = self.scorer.order(component_features(book, scenario), scenario)
-        self._rank, self._list_rank = self.rank, list_ranks(scenario, order)
-        if self.guard and self._rollout(self.rank, order) > self._rollout("list", None):
-            self._rank, self._list_rank = "list", list_ranks(scenario)
+            features = component_features(book, scenario)
+            orders = self.scorer.sampled_orders(features, scenario, self.samples,
+                                                self.temperature, self.rng)  # fmt: skip
+        candidates = [(self.rank, order) for order in orders]
+        if self.guard:
+            candidates.append(("list", None))
+        rank, order = candidates[0]
+        if len(candidates) > 1:
+            spans = [self._rollout(r, o) for r, o in candidates]
+            rank, order = candidates[int(np.argmin(spans))]
+        self._rank, self._list_rank = rank, list_ranks(scenario, order)
         self._planned_state = self.env.sim.state
 
     def _rollout(self, rank: str, order) -> float:
@@ -105,6 +123,21 @@ class TaskPrioritized:
                 return env.sim.state.step_count
             if truncations[first]:
                 return math.inf
+
+
+def _check_sampling(samples, temperature, scorer) -> tuple[int, float]:
+    """``samples`` and ``temperature`` checked: ``ValueError`` names the bad value."""
+    if isinstance(samples, bool) or not isinstance(samples, int | np.integer) or samples < 1:
+        raise ValueError(f"samples must be a whole number of orders, at least 1, got {samples!r}")
+    if samples > 1 and scorer is None:
+        raise ValueError("samples draws orders from a scorer's scores: give it a scorer")
+    try:
+        value = float(temperature)
+    except (TypeError, ValueError):
+        value = math.nan
+    if isinstance(temperature, bool) or not (value > 0 and math.isfinite(value)):
+        raise ValueError(f"temperature must be a positive number, got {temperature!r}")
+    return int(samples), value
 
 
 class TaskGreedy:

@@ -1,4 +1,4 @@
-"""Learns the prioritized rule's list order on ``train`` sites: a scorer, by evolution strategies.
+"""Learns the prioritized rule's list order on ``train`` sites: a scorer, by ES or policy gradient.
 
     .venv/bin/python tools/order_es.py --seed 0 --generations 160 --out runs/order-es21/es-s0
     multicrane evaluate --scenario set:test-small --decisions task --episodes 1 \\
@@ -25,9 +25,13 @@ first recipe's). ``--hidden H`` adds H tanh units to the linear score (``OrderSc
 layer; input weights drawn from the seed, outputs starting at 0, so the start is still the
 plain rule), trained with the rest. ``--average B`` validates, and keeps, a running average of
 the iterates instead of the iterate itself (the search is the same; the average smooths the
-generation-to-generation noise of ES). ``--fit-set NAME`` is a diagnostic, never a held-out
-result: the scorer fitted to a held-out set's own episodes, to see how far it can go there.
-Base install only.
+generation-to-generation noise of ES). ``--estimator reinforce`` replaces ES by the policy
+gradient of the scorer's own orders: each generation plays ``--samples`` orders per site drawn
+from the Plackett-Luce distribution of the scores at ``--temperature`` (as the rule's
+``samples`` option draws them), weighs the gradient of each order's log-probability by its
+ratio minus the mean ratio of its site, and Adam takes the step. ``--fit-set NAME`` is a
+diagnostic, never a held-out result: the scorer fitted to a held-out set's own episodes, to
+see how far it can go there. Base install only.
 """
 
 from __future__ import annotations
@@ -43,31 +47,14 @@ import numpy as np
 import multicrane
 from multicrane.episodes.rollout import run_episode
 from multicrane.scenario.named_sets import (
-    TRAIN_SEEDS,
-    component_count,
+    draw_train_seeds,
     members,
     scenario_set,
     train_member,
 )
-from multicrane.tasks.order_scorer import FEATURES, OrderScorer
+from multicrane.tasks.order_scorer import FEATURES, OrderScorer, component_features
 from multicrane.training.seeding import evaluation_seeds
 from policies.task_planners import TaskPrioritized
-
-
-def eligible_seeds(
-    rng: np.random.Generator, count: int, max_components: int, cranes: tuple[int, int] = (1, 4)
-) -> list[int]:
-    """``count`` distinct train seeds whose sites have at most ``max_components`` components
-    and a crane count in ``cranes`` (inclusive; read from the drawn parameters, without
-    generating the site)."""
-    out: list[int] = []
-    while len(out) < count:
-        s = int(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop))
-        params = dict(train_member(s).params)
-        fits = cranes[0] <= params["cranes"] <= cranes[1]
-        if s not in out and fits and component_count(params) <= max_components:
-            out.append(s)
-    return out
 
 
 def site_episode(site: int | str):
@@ -116,6 +103,49 @@ def es_step(mapper, scorer, trained, sites, rng, args) -> tuple[np.ndarray, floa
     return grad / (2 * args.pairs * args.sigma * spread), float(ratios.mean())
 
 
+def site_samples(site: int | str, rank: str, scorer: OrderScorer, samples: int,
+                 temperature: float, seed: int) -> tuple[list[float], np.ndarray]:  # fmt: skip
+    """On one site: ``samples`` orders drawn from the scorer's Plackett-Luce distribution
+    (``OrderScorer.sampled_orders``, from ``seed``): each one's makespan over the rule's own
+    (as ``site_ratios``) and the gradient of its log-probability."""
+    scenario, reset_seed = site_episode(site)
+    env = multicrane.parallel_env(scenario, decisions="task")
+    base = run_episode(env, TaskPrioritized(env, rank=rank), reset_seed)["makespan"]
+    env.reset(seed=reset_seed)
+    features = component_features(env.unwrapped.mode.task_book(), scenario)
+    scale = temperature * (float(scorer.scores(features).std()) or 1.0)
+    orders = scorer.sampled_orders(features, scenario, samples + 1, temperature,
+                                   np.random.default_rng(seed))[1:]  # fmt: skip
+    ratios, grads = [], []
+    for order in orders:
+        span = run_episode(env, TaskPrioritized(env, rank=rank, order=order), reset_seed)
+        ratios.append(2.0 if span["makespan"] is None or base is None
+                      else span["makespan"] / base)  # fmt: skip
+        grads.append(scorer.log_probability_gradient(features, order, scale))
+    return ratios, np.array(grads)
+
+
+def _samples_job(args) -> tuple[list[float], np.ndarray]:
+    return site_samples(*args)
+
+
+def reinforce_step(mapper, scorer, trained, sites, rng, args) -> tuple[np.ndarray, float]:
+    """One generation of the policy gradient (``--estimator reinforce``): ``--samples``
+    orders per site from the scorer's Plackett-Luce distribution at ``--temperature``, each
+    weighed by its ratio minus the site's mean ratio (the shared baseline), over the spread
+    of the generation; returns, as ``es_step``, the estimate of the gradient of the mean
+    ratio over the ``trained`` parameters and the generation's mean ratio."""
+    seeds = rng.integers(0, 2**63, len(sites))
+    jobs = [(s, args.rank, scorer, args.samples, args.temperature, int(seed))
+            for s, seed in zip(sites, seeds, strict=True)]  # fmt: skip
+    rows = mapper(_samples_job, jobs, chunksize=1)
+    ratios = np.array([r for r, _ in rows])
+    advantages = ratios - ratios.mean(axis=1, keepdims=True)
+    spread = max(float(advantages.std()), 1e-3)
+    grad = sum(a @ g[:, trained] for a, (_, g) in zip(advantages, rows, strict=True))
+    return grad / (ratios.size * spread), float(ratios.mean())
+
+
 def site_draws(args, rng: np.random.Generator):
     """The validation sites and a function drawing a generation's sites: ``train`` seeds
     within the limits, or with ``--fit-set`` every member validates and each generation
@@ -129,8 +159,8 @@ def site_draws(args, rng: np.random.Generator):
 
         return every, some
     limits = (args.max_components, tuple(args.cranes))
-    val_sites = eligible_seeds(np.random.default_rng([args.seed, 1]), args.val_sites, *limits)
-    return val_sites, lambda: eligible_seeds(rng, args.sites, *limits)
+    val_sites = draw_train_seeds(np.random.default_rng([args.seed, 1]), args.val_sites, *limits)
+    return val_sites, lambda: draw_train_seeds(rng, args.sites, *limits)
 
 
 def train(args) -> OrderScorer:
@@ -157,8 +187,12 @@ def train(args) -> OrderScorer:
             row = {"generation": gen}
             if gen:
                 sites = draw()
-                grad, row["ratio"] = es_step(mapper, scorer, trained, sites, rng, args)
-                episodes += len(sites) * (2 * args.pairs + 1)
+                if args.estimator == "es":
+                    grad, row["ratio"] = es_step(mapper, scorer, trained, sites, rng, args)
+                    episodes += len(sites) * (2 * args.pairs + 1)
+                else:
+                    grad, row["ratio"] = reinforce_step(mapper, scorer, trained, sites, rng, args)
+                    episodes += len(sites) * (args.samples + 1)
                 m = 0.9 * m + 0.1 * grad
                 v = 0.999 * v + 0.001 * grad**2
                 step = (m / (1 - 0.9**gen)) / (np.sqrt(v / (1 - 0.999**gen)) + 1e-8)
@@ -181,7 +215,9 @@ def train(args) -> OrderScorer:
     meta = {"rank": args.rank, "seed": args.seed, "generation": best[2],
             "validation_ratio": best[0], "max_components": args.max_components,
             "cranes": list(args.cranes), "features": args.features, "hidden": args.hidden,
-            "average": args.average, "fit_set": args.fit_set}  # fmt: skip
+            "average": args.average, "fit_set": args.fit_set,
+            "estimator": args.estimator, "samples": args.samples,
+            "temperature": args.temperature}  # fmt: skip
     kept = best[1].with_parameters(best[1].parameters(), meta)
     kept.save(out / "scorer.json")
     return kept
@@ -196,7 +232,14 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--generations", type=int, default=140)
     p.add_argument("--pairs", type=int, default=8, help="directions per generation (x2 probes)")
     p.add_argument("--sites", type=int, default=16, help="train sites per generation")
+    p.add_argument("--estimator", default="es", choices=("es", "reinforce"),
+                   help="es: evolution strategies over the weights; reinforce: the policy "
+                        "gradient of the scorer's sampled orders")
     p.add_argument("--sigma", type=float, default=0.05)
+    p.add_argument("--samples", type=int, default=16,
+                   help="reinforce: orders sampled per site (x1 episode each)")
+    p.add_argument("--temperature", type=float, default=0.5,
+                   help="reinforce: the sampling temperature (as the rule's samples option)")
     p.add_argument("--lr", type=float, default=0.02)
     p.add_argument("--rank", default="chain", choices=("list", "chain", "nearest"))
     p.add_argument("--max-components", type=int, default=40)
@@ -247,6 +290,9 @@ def main(argv: list[str] | None = None) -> int:
         parser().error(f"--features must be 1..{len(FEATURES)}, got {args.features}")
     if args.hidden < 0:
         parser().error(f"--hidden must be 0 or more, got {args.hidden}")
+    if args.samples < 2 or not args.temperature > 0:
+        parser().error(f"--samples must be 2 or more and --temperature positive, got "
+                       f"{args.samples} and {args.temperature}")  # fmt: skip
     if not 0 <= args.average < 1:
         parser().error(f"--average must be in [0, 1), got {args.average}")
     if args.fit_set:

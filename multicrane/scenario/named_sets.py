@@ -6,7 +6,8 @@ rule that picks the family and the parameters from the seed (``random.Random`` s
 the set's name and the seed), so a member is fully named by ``(set, seed)``.
 
 - ``train``: a distribution, not a list: any seed in ``TRAIN_SEEDS`` (0 .. 999,999) gives a
-  site of any family, 1-4 cranes, every option on or off (``train_scenario(seed)``).
+  site of any family, 1-4 cranes, every option on or off (``train_scenario(seed)``;
+  ``draw_train_seeds`` draws seeds within a size and crane range).
 - ``test-small``: 50 sites, seeds 1,000,000 .. 1,000,049: at most 30 components, 2-4 cranes.
 - ``test-large``: 50 sites, seeds 2,000,000 .. 2,000,049: 60-200 components, 4-16 cranes;
   the k-th seed aims at 60 + 140 k / 49 components (of 400 shapes drawn, the one nearest
@@ -150,6 +151,21 @@ def train_member(seed: int) -> Member:
             "(seeds outside belong to the held-out sets)"
         )
     return _member("train", seed, None)
+
+
+def draw_train_seeds(rng, count: int, max_components: int,
+                     cranes: tuple[int, int] = (1, 4)) -> list[int]:  # fmt: skip
+    """``count`` distinct ``train`` seeds drawn with ``rng`` (a numpy ``Generator``) whose
+    sites have at most ``max_components`` components and a crane count in ``cranes``
+    (inclusive; read from the drawn parameters, without generating the site)."""
+    out: list[int] = []
+    while len(out) < count:
+        s = int(rng.integers(TRAIN_SEEDS.start, TRAIN_SEEDS.stop))
+        params = dict(train_member(s).params)
+        fits = cranes[0] <= params["cranes"] <= cranes[1]
+        if s not in out and fits and component_count(params) <= max_components:
+            out.append(s)
+    return out
 
 
 def train_scenario(seed: int) -> Scenario:

@@ -171,6 +171,43 @@ class OrderScorer:
         s = self.scores(features)
         return sorted(scenario.order, key=lambda c: -s[c])
 
+    def sampled_orders(self, features: np.ndarray, scenario, count: int, temperature: float,
+                       rng: np.random.Generator) -> list[list[int]]:  # fmt: skip
+        """``count`` orders: ``order``'s first, then ``count - 1`` drawn from the
+        Plackett-Luce distribution of the scores (the Gumbel-max form: each score plus
+        ``temperature`` times the scores' standard deviation over the site's components
+        times a standard Gumbel draw, sorted; the scale makes ``temperature`` mean the same
+        on every site). Only the draws use ``rng``; ``count`` 1 draws nothing."""
+        s = self.scores(features)
+        orders = [sorted(scenario.order, key=lambda c: -s[c])]
+        scale = temperature * (float(s.std()) or 1.0)
+        for _ in range(count - 1):
+            noisy = s + scale * rng.gumbel(size=s.shape)
+            orders.append(sorted(scenario.order, key=lambda c: -noisy[c]))
+        return orders
+
+    def log_probability_gradient(self, features: np.ndarray, order, scale: float) -> np.ndarray:
+        """The gradient, over ``parameters()``, of the log-probability that the Plackett-Luce
+        distribution of the scores divided by ``scale`` draws ``order`` (every component
+        once; ``sampled_orders`` draws from it with ``scale`` = the temperature times the
+        scores' spread, here held fixed)."""
+        x = np.asarray(features, dtype=np.float64)
+        s = self.scores(x) / scale
+        rest = np.asarray(order)
+        ds = np.zeros(len(s))
+        for i in range(len(rest)):
+            logits = s[rest[i:]]
+            p = np.exp(logits - logits.max())
+            ds[rest[i:]] -= p / p.sum()
+            ds[rest[i]] += 1.0
+        ds /= scale
+        if self.hidden is None:
+            return x.T @ ds
+        h = self.hidden
+        units = np.tanh(x @ h["weights"].T + h["bias"])
+        pre = ds[:, None] * h["out"][None, :] * (1 - units**2)
+        return np.concatenate([x.T @ ds, (pre.T @ x).ravel(), pre.sum(0), units.T @ ds])
+
     def save(self, path) -> None:
         body = {"format": FORMAT, "version": 1 if self.hidden is None else 2,
                 "features": list(FEATURES), "weights": self.weights.tolist()}  # fmt: skip

@@ -175,18 +175,6 @@ def test_bad_weights_and_an_order_beside_a_scorer_are_refused():
                         scorer=OrderScorer.list_order())  # fmt: skip
 
 
-def test_eligible_seeds_are_distinct_train_sites_within_the_size_and_crane_range():
-    seeds = es.eligible_seeds(np.random.default_rng(0), 5, 20)
-    assert len(set(seeds)) == 5
-    for s in seeds:
-        assert train_scenario(s).n_components <= 20
-    few = es.eligible_seeds(np.random.default_rng(0), 6, 30, cranes=(2, 3))
-    assert len(set(few)) == 6
-    for s in few:
-        site = train_scenario(s)
-        assert site.n_components <= 30 and 2 <= site.cranes <= 3
-
-
 @pytest.mark.parametrize("hidden", [0, 2])
 def test_a_generation_moves_only_the_trained_features(hidden):
     seen = []

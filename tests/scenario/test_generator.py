@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -29,9 +30,11 @@ from multicrane.scenario.named_sets import (
     HELD_OUT,
     TRAIN_SEEDS,
     component_count,
+    draw_train_seeds,
     members,
     resolve_set,
     train_member,
+    train_scenario,
 )
 from multicrane.scenario.solvable import precedence_cycle
 from multicrane.scenario.writer import to_toml
@@ -223,6 +226,18 @@ def test_the_planners_finish_every_site_of_a_held_out_set_at_the_task_level(name
         for policy in ("prioritized", "greedy"):
             result = run_episode(env, policies.make(policy, env, seed=0), seed=1_000_000)
             assert result["success"], (member.name, policy, result["steps"])
+
+
+def test_drawn_train_seeds_are_distinct_train_sites_within_the_size_and_crane_range():
+    seeds = draw_train_seeds(np.random.default_rng(0), 5, 20)
+    assert len(set(seeds)) == 5
+    for s in seeds:
+        assert train_scenario(s).n_components <= 20
+    few = draw_train_seeds(np.random.default_rng(0), 6, 30, cranes=(2, 3))
+    assert len(set(few)) == 6
+    for s in few:
+        site = train_scenario(s)
+        assert site.n_components <= 30 and 2 <= site.cranes <= 3
 
 
 def test_set_members_generate_what_their_parameters_say():
