@@ -113,7 +113,6 @@ def site_samples(site: int | str, rank: str, scorer: OrderScorer, samples: int,
     base = run_episode(env, TaskPrioritized(env, rank=rank), reset_seed)["makespan"]
     env.reset(seed=reset_seed)
     features = component_features(env.unwrapped.mode.task_book(), scenario)
-    scale = temperature * (float(scorer.scores(features).std()) or 1.0)
     orders = scorer.sampled_orders(features, scenario, samples + 1, temperature,
                                    np.random.default_rng(seed))[1:]  # fmt: skip
     ratios, grads = [], []
@@ -121,7 +120,7 @@ def site_samples(site: int | str, rank: str, scorer: OrderScorer, samples: int,
         span = run_episode(env, TaskPrioritized(env, rank=rank, order=order), reset_seed)
         ratios.append(2.0 if span["makespan"] is None or base is None
                       else span["makespan"] / base)  # fmt: skip
-        grads.append(scorer.log_probability_gradient(features, order, scale))
+        grads.append(scorer.log_probability_gradient(features, order, temperature))
     return ratios, np.array(grads)
 
 
@@ -290,7 +289,7 @@ def main(argv: list[str] | None = None) -> int:
         parser().error(f"--features must be 1..{len(FEATURES)}, got {args.features}")
     if args.hidden < 0:
         parser().error(f"--hidden must be 0 or more, got {args.hidden}")
-    if args.samples < 2 or not args.temperature > 0:
+    if args.estimator == "reinforce" and (args.samples < 2 or not args.temperature > 0):
         parser().error(f"--samples must be 2 or more and --temperature positive, got "
                        f"{args.samples} and {args.temperature}")  # fmt: skip
     if not 0 <= args.average < 1:

@@ -180,19 +180,21 @@ class OrderScorer:
         on every site). Only the draws use ``rng``; ``count`` 1 draws nothing."""
         s = self.scores(features)
         orders = [sorted(scenario.order, key=lambda c: -s[c])]
-        scale = temperature * (float(s.std()) or 1.0)
+        scale = _sampling_scale(s, temperature)
         for _ in range(count - 1):
             noisy = s + scale * rng.gumbel(size=s.shape)
             orders.append(sorted(scenario.order, key=lambda c: -noisy[c]))
         return orders
 
-    def log_probability_gradient(self, features: np.ndarray, order, scale: float) -> np.ndarray:
-        """The gradient, over ``parameters()``, of the log-probability that the Plackett-Luce
-        distribution of the scores divided by ``scale`` draws ``order`` (every component
-        once; ``sampled_orders`` draws from it with ``scale`` = the temperature times the
-        scores' spread, here held fixed)."""
+    def log_probability_gradient(self, features: np.ndarray, order,
+                                 temperature: float) -> np.ndarray:  # fmt: skip
+        """The gradient, over ``parameters()``, of the log-probability that
+        ``sampled_orders`` at ``temperature`` draws ``order`` (every component once), with
+        its scale (the temperature times the scores' spread) held at its value here."""
         x = np.asarray(features, dtype=np.float64)
-        s = self.scores(x) / scale
+        s = self.scores(x)
+        scale = _sampling_scale(s, temperature)
+        s = s / scale
         rest = np.asarray(order)
         ds = np.zeros(len(s))
         for i in range(len(rest)):
@@ -248,6 +250,12 @@ class OrderScorer:
         meta = body.get("meta", {})
         padded = list(weights) + [0.0] * pad
         return cls(padded, meta if isinstance(meta, dict) else {}, hidden)
+
+
+def _sampling_scale(scores: np.ndarray, temperature: float) -> float:
+    """The Gumbel scale of ``sampled_orders``: the temperature times the scores' spread (1
+    when every score is the same)."""
+    return temperature * (float(scores.std()) or 1.0)
 
 
 def _numbers(value, count: int, where: str) -> list[float]:

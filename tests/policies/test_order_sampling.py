@@ -168,6 +168,7 @@ def test_the_curve_takes_the_best_of_the_first_k_candidates():
 
 
 def _log_probability(scorer, features, order, scale) -> float:
+    """The Plackett-Luce log-probability of ``order`` under the scores over ``scale``."""
     s, rest, total = scorer.scores(features) / scale, np.asarray(order), 0.0
     for i in range(len(rest)):
         logits = s[rest[i:]]
@@ -181,9 +182,10 @@ def test_the_log_probability_gradient_matches_finite_differences(hidden):
     features = rng.standard_normal((7, N))
     start = OrderScorer.list_order(hidden, rng)
     scorer = start.with_parameters(rng.standard_normal(len(start.parameters())))
-    order, scale = list(rng.permutation(7)), 0.7
+    order, temperature = list(rng.permutation(7)), 0.7
+    scale = temperature * scorer.scores(features).std()
     theta = scorer.parameters()
-    grad = scorer.log_probability_gradient(features, order, scale)
+    grad = scorer.log_probability_gradient(features, order, temperature)
     assert grad.shape == theta.shape
     for i in rng.choice(len(theta), min(len(theta), 25), replace=False):
         step = np.zeros_like(theta)
