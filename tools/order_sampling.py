@@ -13,9 +13,9 @@ once and reports, per temperature and for k = 1, 2, 4, ... K, what the policy wi
 to the prioritized planner's (in brackets the mean of per-site ratios), the sites longer than
 the planner and the worst site. The sites: ``--set NAME`` (a held-out set, each site from the
 first evaluation seed, the episode ``evaluate --episodes 1`` plays), or ``--sites`` ``train``
-sites within ``--max-components`` and ``--cranes``, drawn from ``--seed`` by a stream that
-neither ``tools/order_es.py``'s training nor its validation draws from (each from its own
-seed). Base install only.
+sites within ``--max-components`` and ``--cranes``, drawn from ``--seed`` by a stream of
+their own (not the one of ``tools/order_es.py``'s training or validation sites; a site may
+still be one of those by chance). Base install only.
 """
 
 from __future__ import annotations
