@@ -94,9 +94,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if args.samples < 1 or min(args.temperature) <= 0:
         raise SystemExit("--samples must be at least 1 and every --temperature positive")
-    scorer = OrderScorer.load(args.scorer)
+    try:
+        scorer = OrderScorer.load(args.scorer)
+        named = members(args.set) if args.set else []
+    except ValueError as exc:
+        raise SystemExit(f"order_sampling: {exc}") from None
     if args.set:
-        sites = [f"{args.set}:{i}" for i in range(len(members(args.set)))]
+        sites = [f"{args.set}:{i}" for i in range(len(named))]
     else:
         rng = np.random.default_rng([args.seed, 3])
         sites = draw_train_seeds(rng, args.sites, args.max_components, tuple(args.cranes))

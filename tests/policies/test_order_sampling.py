@@ -149,6 +149,12 @@ def test_the_probe_reports_what_the_policy_plays(tmp_path, capsys):
     scorer.save(tmp_path / "scorer.json")
     assert sampling.main(["--scorer", str(tmp_path), "--sites", "2", "--max-components", "12",
                           "--samples", "3", "--workers", "1"]) == 0  # fmt: skip
+    for bad, words in ((["--set", "test-nothing"], "test-nothing"),
+                       (["--samples", "0"], "--samples must be at least 1")):
+        with pytest.raises(SystemExit, match=words):
+            sampling.main(["--scorer", str(tmp_path), *bad])
+    with pytest.raises(SystemExit, match="order scorer .*nowhere"):
+        sampling.main(["--scorer", str(tmp_path / "nowhere.json")])
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("2 train sites, temperature 0.5: prioritized")
     assert [line.split(":")[0].strip() for line in out[1:]] == ["best of   1", "best of   2",
