@@ -76,8 +76,13 @@ def site_ratios(site: int | str, rank: str, scorers: list[OrderScorer]) -> list[
     out = []
     for scorer in scorers:
         span = run_episode(env, TaskPrioritized(env, rank=rank, scorer=scorer), seed)["makespan"]
-        out.append(2.0 if span is None or base is None else span / base)
+        out.append(_ratio(span, base))
     return out
+
+
+def _ratio(span, base) -> float:
+    """A makespan over the rule's own (an unfinished episode, either of them: 2)."""
+    return 2.0 if span is None or base is None else span / base
 
 
 def _job(args) -> list[float]:
@@ -118,8 +123,7 @@ def site_samples(site: int | str, rank: str, scorer: OrderScorer, samples: int,
     ratios, grads = [], []
     for order in orders:
         span = run_episode(env, TaskPrioritized(env, rank=rank, order=order), reset_seed)
-        ratios.append(2.0 if span["makespan"] is None or base is None
-                      else span["makespan"] / base)  # fmt: skip
+        ratios.append(_ratio(span["makespan"], base))
         grads.append(scorer.log_probability_gradient(features, order, temperature))
     return ratios, np.array(grads)
 

@@ -168,8 +168,7 @@ class OrderScorer:
 
     def order(self, features: np.ndarray, scenario) -> list[int]:
         """The components by score, highest first; ties in the scenario's list order."""
-        s = self.scores(features)
-        return sorted(scenario.order, key=lambda c: -s[c])
+        return _by_score(scenario, self.scores(features))
 
     def sampled_orders(self, features: np.ndarray, scenario, count: int, temperature: float,
                        rng: np.random.Generator) -> list[list[int]]:  # fmt: skip
@@ -179,12 +178,9 @@ class OrderScorer:
         times a standard Gumbel draw, sorted; the scale makes ``temperature`` mean the same
         on every site). Only the draws use ``rng``; ``count`` 1 draws nothing."""
         s = self.scores(features)
-        orders = [sorted(scenario.order, key=lambda c: -s[c])]
         scale = _sampling_scale(s, temperature)
-        for _ in range(count - 1):
-            noisy = s + scale * rng.gumbel(size=s.shape)
-            orders.append(sorted(scenario.order, key=lambda c: -noisy[c]))
-        return orders
+        noisy = [s + scale * rng.gumbel(size=s.shape) for _ in range(count - 1)]
+        return [_by_score(scenario, scores) for scores in (s, *noisy)]
 
     def log_probability_gradient(self, features: np.ndarray, order,
                                  temperature: float) -> np.ndarray:  # fmt: skip
@@ -250,6 +246,11 @@ class OrderScorer:
         meta = body.get("meta", {})
         padded = list(weights) + [0.0] * pad
         return cls(padded, meta if isinstance(meta, dict) else {}, hidden)
+
+
+def _by_score(scenario, scores) -> list[int]:
+    """The scenario's components by score, highest first; ties in its list order."""
+    return sorted(scenario.order, key=lambda c: -scores[c])
 
 
 def _sampling_scale(scores: np.ndarray, temperature: float) -> float:
