@@ -29,7 +29,10 @@ generation-to-generation noise of ES). ``--estimator reinforce`` replaces ES by 
 gradient of the scorer's own orders: each generation plays ``--samples`` orders per site drawn
 from the Plackett-Luce distribution of the scores at ``--temperature`` (as the rule's
 ``samples`` option draws them), weighs the gradient of each order's log-probability by its
-ratio minus the mean ratio of its site, and Adam takes the step. ``--fit-set NAME`` is a
+ratio minus the mean ratio of its site, and Adam takes the step. ``--estimator best`` draws the
+same orders but learns from each site's shortest ones only (expert iteration over the scorer's
+own search at reset, or the cross-entropy method): the step climbs the log-probability of each
+site's shortest sample (tied shortest samples share it). ``--fit-set NAME`` is a
 diagnostic, never a held-out result: the scorer fitted to a held-out set's own episodes, to
 see how far it can go there. Base install only.
 """
@@ -137,12 +140,19 @@ def reinforce_step(mapper, scorer, trained, sites, rng, args) -> tuple[np.ndarra
     orders per site from the scorer's Plackett-Luce distribution at ``--temperature``, each
     weighed by its ratio minus the site's mean ratio (the shared baseline), over the spread
     of the generation; returns, as ``es_step``, the estimate of the gradient of the mean
-    ratio over the ``trained`` parameters and the generation's mean ratio."""
+    ratio over the ``trained`` parameters and the generation's mean ratio. With
+    ``--estimator best`` the direction is instead minus the mean over the sites of the
+    gradient of the log-probability of each site's shortest sample (ties share it)."""
     seeds = rng.integers(0, 2**63, len(sites))
     jobs = [(s, args.rank, scorer, args.samples, args.temperature, int(seed))
             for s, seed in zip(sites, seeds, strict=True)]  # fmt: skip
     rows = mapper(_samples_job, jobs, chunksize=1)
     ratios = np.array([r for r, _ in rows])
+    if args.estimator == "best":
+        best = ratios == ratios.min(axis=1, keepdims=True)
+        weights = -best.astype(float) / best.sum(axis=1, keepdims=True)
+        grad = sum(w @ g[:, trained] for w, (_, g) in zip(weights, rows, strict=True))
+        return grad / len(sites), float(ratios.mean())
     advantages = ratios - ratios.mean(axis=1, keepdims=True)
     spread = max(float(advantages.std()), 1e-3)
     grad = sum(a @ g[:, trained] for a, (_, g) in zip(advantages, rows, strict=True))
@@ -235,14 +245,15 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--generations", type=int, default=140)
     p.add_argument("--pairs", type=int, default=8, help="directions per generation (x2 probes)")
     p.add_argument("--sites", type=int, default=16, help="train sites per generation")
-    p.add_argument("--estimator", default="es", choices=("es", "reinforce"),
+    p.add_argument("--estimator", default="es", choices=("es", "reinforce", "best"),
                    help="es: evolution strategies over the weights; reinforce: the policy "
-                        "gradient of the scorer's sampled orders")
+                        "gradient of the scorer's sampled orders; best: the log-probability "
+                        "of each site's shortest sampled order (expert iteration)")
     p.add_argument("--sigma", type=float, default=0.05)
     p.add_argument("--samples", type=int, default=16,
-                   help="reinforce: orders sampled per site (x1 episode each)")
+                   help="reinforce, best: orders sampled per site (x1 episode each)")
     p.add_argument("--temperature", type=float, default=0.5,
-                   help="reinforce: the sampling temperature (as the rule's samples option)")
+                   help="reinforce, best: the sampling temperature (as the rule's samples option)")
     p.add_argument("--lr", type=float, default=0.02)
     p.add_argument("--rank", default="chain", choices=("list", "chain", "nearest"))
     p.add_argument("--max-components", type=int, default=40)
@@ -293,7 +304,7 @@ def main(argv: list[str] | None = None) -> int:
         parser().error(f"--features must be 1..{len(FEATURES)}, got {args.features}")
     if args.hidden < 0:
         parser().error(f"--hidden must be 0 or more, got {args.hidden}")
-    if args.estimator == "reinforce" and (args.samples < 2 or not args.temperature > 0):
+    if args.estimator != "es" and (args.samples < 2 or not args.temperature > 0):
         parser().error(f"--samples must be 2 or more and --temperature positive, got "
                        f"{args.samples} and {args.temperature}")  # fmt: skip
     if not 0 <= args.average < 1:

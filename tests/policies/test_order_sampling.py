@@ -225,6 +225,24 @@ def test_a_reinforce_generation_weighs_each_sample_by_its_ratio_against_its_site
     assert np.allclose(grad, by_hand) and mean == pytest.approx(1.0)
 
 
+def test_a_best_generation_climbs_the_log_probability_of_each_sites_shortest_samples():
+    es = load_tool("order_es")
+    args = es.parser().parse_args(["--estimator", "best", "--samples", "3", "--features", "3"])
+    scorer = OrderScorer.list_order()
+    trained = scorer.trainable(3)
+    grads = {7: np.arange(3 * N, dtype=float).reshape(3, N), 8: np.ones((3, N)) * [[1], [2], [4]]}
+    ratios = {7: [0.9, 1.1, 0.95], 8: [1.0, 0.8, 0.8]}  # site 8: two shortest, a tie
+
+    def mapper(_, jobs, chunksize):  # a stand-in for the episodes
+        return [(ratios[job[0]], grads[job[0]]) for job in jobs]
+
+    grad, mean = es.reinforce_step(mapper, scorer, trained, [7, 8], np.random.default_rng(0),
+                                   args)  # fmt: skip
+    by_hand = -(grads[7][0, :3] + (grads[8][1, :3] + grads[8][2, :3]) / 2) / 2
+    assert np.allclose(grad, by_hand)
+    assert mean == pytest.approx(np.mean(ratios[7] + ratios[8]))
+
+
 def test_the_reinforce_trainer_is_a_function_of_its_seed(tmp_path):
     es = load_tool("order_es")
 
