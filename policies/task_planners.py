@@ -11,9 +11,10 @@ continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
   motion-mode planner's makespans. ``order``: a list order of its own (every component index
   once) in place of the scenario's, e.g. a sequence planned elsewhere (``tools/order_probe.py``
   replays the order another planner started the components in). ``scorer``: a learned list
-  order instead (``multicrane.tasks.order_scorer.OrderScorer`` or the path of its file, e.g.
-  one ``tools/order_es.py`` trained), computed from the components' static features at the
-  first decision of each episode. ``guard``: at that decision, play the episode on copies of
+  order instead (``multicrane.tasks.order_scorer.OrderScorer``, the path of its file, e.g.
+  one ``tools/order_es.py`` trained, or the name of a scorer shipped in ``policies/scorers``:
+  ``shipped_scorers()``, ``load_scorer``), computed from the components' static features at
+  the first decision of each episode. ``guard``: at that decision, play the episode on copies of
   the site with this order and with the plain planner's (``rank="list"``, the scenario's
   order) and keep the shorter (ties: this order); on a site without events the copy's
   episode is the real one, so the guarded rule is never longer than the planner (it costs
@@ -71,9 +72,8 @@ class TaskPrioritized:
                 raise ValueError(f"{name} plays copies of the environment, which hold the "
                                  "episode's future site events: use it on sites without "
                                  "events")  # fmt: skip
-        if isinstance(scorer, str | Path):
-            scorer = OrderScorer.load(scorer)
-        self.scorer, self.guard = scorer, bool(guard)
+        self.scorer = None if scorer is None else load_scorer(scorer)
+        self.guard = bool(guard)
         self.rng = np.random.default_rng(seed)
         self.order = None if order is None else list(order)
         self._list_rank = list_ranks(self.env.scenario, order)
@@ -123,6 +123,32 @@ class TaskPrioritized:
                 return env.sim.state.step_count
             if truncations[first]:
                 return math.inf
+
+
+SCORERS = Path(__file__).parent / "scorers"
+
+
+def shipped_scorers() -> list[str]:
+    """The names of the scorers shipped with the library (``policies/scorers/NAME.json``)."""
+    return sorted(path.stem for path in SCORERS.glob("*.json"))
+
+
+def load_scorer(scorer) -> OrderScorer:
+    """``scorer`` as an ``OrderScorer``: one already, the path of a scorer file or of a run
+    directory holding ``scorer.json``, or the name of a shipped scorer (``shipped_scorers``;
+    an existing path of that name wins). ``ValueError`` names what is wrong."""
+    if isinstance(scorer, OrderScorer):
+        return scorer
+    if not isinstance(scorer, str | Path):
+        raise ValueError(f"scorer must be an OrderScorer, a path or a shipped scorer's name, "
+                         f"got {scorer!r}")  # fmt: skip
+    path = Path(scorer)
+    if not path.exists():
+        if str(scorer) not in shipped_scorers():
+            raise ValueError(f"scorer {str(scorer)!r}: no such file or run directory, and not "
+                             f"a shipped scorer ({', '.join(shipped_scorers())})")  # fmt: skip
+        path = SCORERS / f"{scorer}.json"
+    return OrderScorer.load(path)
 
 
 def _check_sampling(samples, temperature, scorer) -> tuple[int, float]:

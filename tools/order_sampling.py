@@ -32,7 +32,7 @@ from multicrane.episodes.rollout import run_episode
 from multicrane.scenario.named_sets import draw_train_seeds, members
 from multicrane.tasks.order_scorer import OrderScorer, component_features
 from policies.registry import policy_seed
-from policies.task_planners import TaskPrioritized
+from policies.task_planners import TaskPrioritized, load_scorer
 
 sys.path.insert(0, str(Path(__file__).parent))  # tools/ is not a package
 from order_es import site_episode  # noqa: E402
@@ -95,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.samples < 1 or min(args.temperature) <= 0:
         raise SystemExit("--samples must be at least 1 and every --temperature positive")
     try:
-        scorer = OrderScorer.load(args.scorer)
+        scorer = load_scorer(args.scorer)
         named = members(args.set) if args.set else []
     except ValueError as exc:
         raise SystemExit(f"order_sampling: {exc}") from None

@@ -153,7 +153,7 @@ def test_the_probe_reports_what_the_policy_plays(tmp_path, capsys):
                        (["--samples", "0"], "--samples must be at least 1")):
         with pytest.raises(SystemExit, match=words):
             sampling.main(["--scorer", str(tmp_path), *bad])
-    with pytest.raises(SystemExit, match="order scorer .*nowhere"):
+    with pytest.raises(SystemExit, match="nowhere.json.: no such file or run directory"):
         sampling.main(["--scorer", str(tmp_path / "nowhere.json")])
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("2 train sites, temperature 0.5: prioritized")
