@@ -2,7 +2,8 @@
 
 ``policies.registry`` builds policies from it (``lookahead:candidates=20``,
 ``prioritized:rank=nearest``); the layers below ``policies`` that only need to know which
-policy a label names (a training run's teacher, a leaderboard entry) ask ``spec_name``.
+policy a label names (a training run's teacher, a leaderboard entry) ask ``spec_name`` and
+``spec_options``.
 """
 
 from __future__ import annotations
@@ -41,6 +42,14 @@ def spec_name(spec: str) -> str:
         return split_spec(spec)[0]
     except SpecError:
         return str(spec).partition(":")[0]
+
+
+def spec_options(spec: str) -> dict[str, Any]:
+    """The options of ``spec`` (none if malformed)."""
+    try:
+        return split_spec(spec)[1]
+    except SpecError:
+        return {}
 
 
 def _option_value(text: str) -> Any:

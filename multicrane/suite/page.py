@@ -8,9 +8,9 @@ the version's ``best.json`` (read by ``read_best`` for the gaps ``suite evaluate
 ``leaderboard(...)`` is the markdown page: per track, the entries, then per instance its bound
 and best-known. Each entry has a kind (``entry_kind``): ``planner`` (a name in ``first``, the
 project's planners), ``learned`` (results that carry a training run's ``training`` block,
-``multicrane.suite.play.training_block``), ``search`` (the large-neighbourhood search of
-``suite improve``, ``SEARCH``) or ``submitted``; the entries are ranked in that order of kinds,
-each kind by gap to the bound.
+``multicrane.suite.play.training_block``, or a planner given a learned order, ``scorer=``),
+``search`` (the large-neighbourhood search of ``suite improve``, ``SEARCH``) or
+``submitted``; the entries are ranked in that order of kinds, each kind by gap to the bound.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from multicrane.episodes.policy_spec import spec_name
+from multicrane.episodes.policy_spec import spec_name, spec_options
 from multicrane.files import write_atomic
 from multicrane.suite.manifest import Manifest, SuiteError
 from multicrane.suite.results import gap, mean, pct, read_results, track_summary
@@ -177,11 +177,12 @@ def _entries(manifest: Manifest, track: str, collected: list, best: dict, bounds
 
 def entry_kind(results: dict[str, Any], planners: tuple[str, ...]) -> str:
     """What made a results file's entry, one of ``KINDS`` (see the module doc); a planner
-    given with options (``lookahead:candidates=20``) is a planner."""
+    given with options (``lookahead:candidates=20``) is a planner, but one given a learned
+    list order (``prioritized:rank=chain,scorer=order-es21-s0``) is learned."""
+    if "training" in results or "scorer" in spec_options(results["policy"]):
+        return "learned"
     if spec_name(results["policy"]) in planners:
         return "planner"
-    if "training" in results:
-        return "learned"
     return "search" if results["policy"] == SEARCH else "submitted"
 
 

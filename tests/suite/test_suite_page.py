@@ -31,6 +31,9 @@ def test_entry_kind_tells_planners_learned_policies_and_the_search_apart():
     assert entry_kind(_results("ppo-zero-shot", [1] * 8, training=training), PLANNERS) == (
         "learned"
     )
+    learned_order = "prioritized:rank=chain,scorer=order-es21-s0"
+    assert entry_kind(_results(learned_order, [1] * 8), PLANNERS) == "learned"
+    assert entry_kind(_results("prioritized:rank=chain,", [1] * 8), PLANNERS) == "planner"
     assert entry_kind(_results(SEARCH, [1] * 8), PLANNERS) == "search"
     assert entry_kind(_results("mine", [1] * 8), PLANNERS) == "submitted"
 
