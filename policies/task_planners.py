@@ -5,7 +5,8 @@ continue, ``1 + p`` task ``p``); the environment's carrier moves the components.
 
 - ``TaskPrioritized``: the prioritized planner's rule (``policies.prioritized``): ready pairs
   ranked by list order then distance (or distance alone, or the target's chain first:
-  ``rank=``); for each pair in that order the first idle crane allowed to take it asks
+  ``rank=``; with a scorer, by default the rank it was trained with, its ``meta["rank"]``);
+  for each pair in that order the first idle crane allowed to take it asks
   ``env.task_feasible(crane, p)`` (the carrier's space-time search, kept for the step if the
   crane then chooses it), at most ``max_searches`` searches per decision. It gives the
   motion-mode planner's makespans. ``order``: a list order of its own (every component index
@@ -57,13 +58,12 @@ def _book(env):
 class TaskPrioritized:
     """The prioritized rule over tasks (see the module doc); ``stats`` are the carrier's."""
 
-    def __init__(self, env, seed=None, max_searches: int = 8, rank: str = "list", order=None,
-                 scorer=None, guard: bool = False, samples: int = 1,
+    def __init__(self, env, seed=None, max_searches: int = 8, rank: str | None = None,
+                 order=None, scorer=None, guard: bool = False, samples: int = 1,
                  temperature: float = 0.5):  # fmt: skip
         self.env, _ = _book(env)
         self.seed = seed
         self.max_searches = max_searches
-        self.rank = check_rank(rank)
         if order is not None and scorer is not None:
             raise ValueError("give the rule an order or a scorer, not both")
         self.samples, self.temperature = _check_sampling(samples, temperature, scorer)
@@ -73,6 +73,9 @@ class TaskPrioritized:
                                  "episode's future site events: use it on sites without "
                                  "events")  # fmt: skip
         self.scorer = None if scorer is None else load_scorer(scorer)
+        if rank is None:  # a scorer's own rank, the one it was trained with
+            rank = self.scorer.meta.get("rank", "list") if self.scorer else "list"
+        self.rank = check_rank(rank)
         self.guard = bool(guard)
         self.rng = np.random.default_rng(seed)
         self.order = None if order is None else list(order)

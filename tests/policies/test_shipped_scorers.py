@@ -75,3 +75,18 @@ def test_the_shipped_order_plays_its_golden_episodes(member, planner, learned):
     assert run_episode(env, TaskPrioritized(env), seed)["makespan"] == planner
     by_name = policies.make(f"prioritized:rank=chain,scorer={SHIPPED}", env, seed=seed)
     assert run_episode(env, by_name, seed)["makespan"] == learned
+    own_rank = policies.make(f"prioritized:scorer={SHIPPED}", env, seed=seed)  # its meta's
+    assert own_rank.rank == "chain"
+    assert run_episode(env, own_rank, seed)["makespan"] == learned
+
+
+def test_a_scorer_plays_its_own_rank_unless_told_otherwise():
+    env = multicrane.parallel_env("hall-4c", decisions="task")
+    assert TaskPrioritized(env).rank == "list"
+    assert TaskPrioritized(env, scorer=SHIPPED).rank == "chain"
+    assert TaskPrioritized(env, scorer=SHIPPED, rank="list").rank == "list"
+    assert TaskPrioritized(env, scorer=OrderScorer.list_order()).rank == "list"  # no meta
+    odd = OrderScorer.list_order()
+    odd.meta["rank"] = "sideways"
+    with pytest.raises(ValueError, match="rank must be one of .*got 'sideways'"):
+        TaskPrioritized(env, scorer=odd)
