@@ -77,7 +77,8 @@ def curve(planner: np.ndarray, spans: np.ndarray) -> list[dict]:
 
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scorer", required=True, help="a scorer file or a run directory")
+    p.add_argument("--scorer", required=True,
+                   help="a scorer file, a run directory or a shipped scorer's name")
     p.add_argument("--samples", type=int, default=16, help="K, the candidates per site")
     p.add_argument("--temperature", type=float, nargs="+", default=[0.5])
     p.add_argument("--rank", default="chain", choices=("list", "chain", "nearest"))
