@@ -92,10 +92,11 @@ def _job(args) -> list[float]:
     return site_ratios(*args)
 
 
-def es_step(mapper, scorer, trained, sites, rng, args) -> tuple[np.ndarray, float]:
+def es_step(mapper, scorer, trained, sites, rng, args, job=_job) -> tuple[np.ndarray, float]:
     """One generation: the gradient estimate of the mean ratio (lower is better) over the
     parameters ``trained`` (indices into ``scorer.parameters()``) and the generation's mean
-    ratio."""
+    ratio. ``job((site, rank, probes))`` gives each probe's ratio on a site (``site_ratios``;
+    the probes are ``scorer.with_parameters`` of the perturbed parameters)."""
     eps = rng.standard_normal((args.pairs, len(trained)))
     params = scorer.parameters()
     probes = []
@@ -105,10 +106,24 @@ def es_step(mapper, scorer, trained, sites, rng, args) -> tuple[np.ndarray, floa
             probe[trained] += sign * args.sigma * e
             probes.append(scorer.with_parameters(probe))
     jobs = [(s, args.rank, probes) for s in sites]
-    ratios = np.array(mapper(_job, jobs, chunksize=1)).mean(axis=0).reshape(args.pairs, 2)
+    ratios = np.array(mapper(job, jobs, chunksize=1)).mean(axis=0).reshape(args.pairs, 2)
     spread = max(float(ratios.std()), 1e-3)
     grad = ((ratios[:, 0] - ratios[:, 1])[:, None] * eps).sum(0)
     return grad / (2 * args.pairs * args.sigma * spread), float(ratios.mean())
+
+
+class Adam:
+    """Adam's step direction (decay 0.9 and 0.999) for a gradient estimate, call by call."""
+
+    def __init__(self, size: int):
+        self.m, self.v, self.calls = np.zeros(size), np.zeros(size), 0
+
+    def step(self, grad: np.ndarray) -> np.ndarray:
+        self.calls += 1
+        self.m = 0.9 * self.m + 0.1 * grad
+        self.v = 0.999 * self.v + 0.001 * grad**2
+        m_hat, v_hat = self.m / (1 - 0.9**self.calls), self.v / (1 - 0.999**self.calls)
+        return m_hat / (np.sqrt(v_hat) + 1e-8)
 
 
 def site_samples(site: int | str, rank: str, scorer: OrderScorer, samples: int,
@@ -184,7 +199,7 @@ def train(args) -> OrderScorer:
     val_sites, draw = site_draws(args, rng)
     scorer = OrderScorer.list_order(args.hidden, np.random.default_rng([args.seed, 2]))
     trained = scorer.trainable(args.features)
-    m, v = np.zeros(len(trained)), np.zeros(len(trained))
+    adam = Adam(len(trained))
     best, episodes, start = (np.inf, scorer, 0), 0, time.perf_counter()
     mean = scorer.parameters()  # the running average of the iterates (--average)
     pool = Pool(args.workers) if args.workers > 1 else None
@@ -206,9 +221,7 @@ def train(args) -> OrderScorer:
                 else:
                     grad, row["ratio"] = reinforce_step(mapper, scorer, trained, sites, rng, args)
                     episodes += len(sites) * (args.samples + 1)
-                m = 0.9 * m + 0.1 * grad
-                v = 0.999 * v + 0.001 * grad**2
-                step = (m / (1 - 0.9**gen)) / (np.sqrt(v / (1 - 0.999**gen)) + 1e-8)
+                step = adam.step(grad)
                 params = scorer.parameters()
                 params[trained] -= args.lr * step
                 scorer = scorer.with_parameters(params)
