@@ -124,17 +124,10 @@ def keyed_ranking(key: PairKey | None):
     def ranked(carrier, candidates, taken, rank, list_rank):
         if not candidates:
             return []
-        comps = np.asarray(candidates, dtype=np.int64)
-        dist = carrier.pair_distances()[comps]
-        open_ = np.asarray(carrier.sim.target_ready, dtype=bool)
-        open_[list(taken)] = False
-        rows, targets = np.nonzero((dist >= 0) & open_)
-        comp, d = comps[rows], dist[rows, targets]
+        rows, comp, targets, d = priority_rule.ready_pairs(carrier, candidates, taken)
         features = pair_features(carrier, comp, targets, d, rows, list_rank)
-        place = features[:, 0]
-        order = np.lexsort((targets, d, place, features @ key.weights))
-        ranked = (d[order].tolist(), comp[order].tolist(), targets[order].tolist())
-        return list(zip(*ranked, strict=True))
+        order = np.lexsort((targets, d, features[:, 0], features @ key.weights))
+        return priority_rule.pair_tuples(order, d, comp, targets)
 
     priority_rule.ranked_pairs = library if key is None else ranked
     try:

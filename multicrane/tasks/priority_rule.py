@@ -45,20 +45,32 @@ def list_ranks(scenario, order=None) -> dict[int, int]:
     return {c: i for i, c in enumerate(listed)}
 
 
-def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
-    """Ready (component, target) pairs, best first: ``(distance, comp, target)`` tuples over
-    each candidate's ready compatible targets not in ``taken`` that a pose of its shape
-    covers (``Carrier.pair_distances``: from the pick-up pose to the target's pose); ranked
-    by (list rank, distance, target), (distance, component, target) or (longest chain,
-    list rank, distance, target)."""
-    if not candidates:
-        return []
+def ready_pairs(carrier: Carrier, candidates, taken: set[int]) -> tuple[np.ndarray, ...]:
+    """The ready (component, target) pairs of a round as arrays ``(rows, comp, target,
+    distance)``: each candidate's ready compatible targets not in ``taken`` that a pose of
+    its shape covers (``Carrier.pair_distances``: from the pick-up pose to the target's
+    pose); ``rows``: the component's place in ``candidates``."""
     comps = np.asarray(candidates, dtype=np.int64)
     dist = carrier.pair_distances()[comps]
     open_ = np.asarray(carrier.sim.target_ready, dtype=bool)
     open_[list(taken)] = False
     rows, targets = np.nonzero((dist >= 0) & open_)
-    comp, d = comps[rows], dist[rows, targets]
+    return rows, comps[rows], targets, dist[rows, targets]
+
+
+def pair_tuples(order, distance, comp, target) -> list[tuple[int, int, int]]:
+    """The pairs in ``order`` as ``ranked_pairs`` lists them: ``(distance, comp, target)``."""
+    ranked = (distance[order].tolist(), comp[order].tolist(), target[order].tolist())
+    return list(zip(*ranked, strict=True))
+
+
+def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
+    """Ready pairs (``ready_pairs``), best first, as ``(distance, comp, target)`` tuples:
+    ranked by (list rank, distance, target), (distance, component, target) or (longest
+    chain, list rank, distance, target)."""
+    if not candidates:
+        return []
+    _, comp, targets, d = ready_pairs(carrier, candidates, taken)
     if rank in ("list", "chain"):
         keys = [targets, d, np.array([list_rank[c] for c in comp.tolist()], dtype=np.int64)]
         if rank == "chain":
@@ -66,8 +78,7 @@ def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_
         order = np.lexsort(keys)
     else:
         order = np.lexsort((targets, comp, d))
-    ranked = (d[order].tolist(), comp[order].tolist(), targets[order].tolist())
-    return list(zip(*ranked, strict=True))
+    return pair_tuples(order, d, comp, targets)
 
 
 def check_rank(rank: str) -> str:

@@ -67,15 +67,8 @@ def test_pair_features_name_every_column_and_scale_them():
         keyed = priority_rule.ranked_pairs
 
         def spy(carrier, candidates, taken, rank, list_rank):
-            comps = np.asarray(candidates)
-            dist = carrier.pair_distances()[comps]
-            open_ = np.asarray(carrier.sim.target_ready, dtype=bool)
-            rows, targets = np.nonzero((dist >= 0) & open_)
-            captured.append(
-                probe.pair_features(
-                    carrier, comps[rows], targets, dist[rows, targets], rows, list_rank
-                )
-            )
+            rows, comp, targets, d = priority_rule.ready_pairs(carrier, candidates, taken)
+            captured.append(probe.pair_features(carrier, comp, targets, d, rows, list_rank))
             return keyed(carrier, candidates, taken, rank, list_rank)
 
         priority_rule.ranked_pairs = spy
