@@ -17,8 +17,9 @@ a pool drawn from ``--seed``, validated every ``--val-every`` generations on ``-
 others (or with ``--fit-set NAME``, a diagnostic, on a held-out set's own episodes); the best
 goes to ``OUT/pair_key.json``, each generation to ``OUT/log.jsonl``. ``--evaluate OUT`` plays
 the kept key, the start key and the chain rank on a held-out set against the planner. It
-did not help (docs/marl-results.md, issue 33, target 3), so it stays a probe, outside the
-library. Base install only.
+met issue 33's target 3 on test-small in two seeds of five and lost on test-large and
+test-other (docs/marl-results.md), so it stays a probe, outside the library. Base install
+only.
 """
 
 from __future__ import annotations
@@ -98,8 +99,8 @@ def pair_features(carrier, comp, targets, dist, rows, list_rank) -> np.ndarray:
     chain, dependents, centres, side = _site_constants(sim)
     every = carrier.pair_distances().astype(float)
     every[every < 0] = np.nan
-    placed = ~np.isnan(every).all(axis=1)
-    scale = float(np.nanmin(every[placed], axis=1).mean()) if placed.any() else 1.0
+    covered = ~np.isnan(every).all(axis=1)  # components with some pose on a target
+    scale = float(np.nanmin(every[covered], axis=1).mean()) if covered.any() else 1.0
     n, cranes = sim.site.n_components, sim.n_cranes / 16
     place = np.array([list_rank[c] for c in comp.tolist()], dtype=float) / n
     busy = [plan.target for plan in carrier.plans.values()]
