@@ -249,6 +249,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if not (args.evaluate or args.out):
         parser().error("give --out to train or --evaluate RUN")
+    if args.evaluate and not (Path(args.evaluate) / "pair_key.json").is_file():
+        parser().error(f"--evaluate: {args.evaluate}/pair_key.json: no such file (a run "
+                       "directory of this tool)")  # fmt: skip
     for name in filter(None, (args.fit_set, args.evaluate and args.set)):
         try:
             members(name)

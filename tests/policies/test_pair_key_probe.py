@@ -99,6 +99,7 @@ def test_one_generation_trains_keeps_and_evaluates_a_key(tmp_path, capsys):
 @pytest.mark.parametrize("argv, says", [
     ([], "give --out"),
     (["--out", "x", "--fit-set", "no-such-set"], "no-such-set"),
+    (["--evaluate", "no-such-run"], "no-such-run/pair_key.json: no such file"),
 ])  # fmt: skip
 def test_bad_arguments_are_named(argv, says, capsys):
     with pytest.raises(SystemExit):
