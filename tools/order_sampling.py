@@ -15,7 +15,9 @@ the planner and the worst site. The sites: ``--set NAME`` (a held-out set, each 
 first evaluation seed, the episode ``evaluate --episodes 1`` plays), or ``--sites`` ``train``
 sites within ``--max-components`` and ``--cranes``, drawn from ``--seed`` by a stream of
 their own (not the one of ``tools/order_es.py``'s training or validation sites; a site may
-still be one of those by chance). Base install only.
+still be one of those by chance). ``--other-ranks list nearest --other-samples M``, a
+diagnostic no policy plays: the first M orders also under those ranks, and the best of all the
+candidates. Base install only.
 """
 
 from __future__ import annotations
@@ -37,11 +39,15 @@ from policies.task_planners import TaskPrioritized, load_scorer
 sys.path.insert(0, str(Path(__file__).parent))  # tools/ is not a package
 from order_es import site_episode  # noqa: E402
 
+RANKS = ("list", "chain", "nearest")
 
-def candidate_spans(site, scorer: OrderScorer, rank: str, samples: int,
-                    temperature: float) -> tuple[float, list[float]]:  # fmt: skip
-    """On one site: the planner's makespan and each candidate order's, in the policy's order
-    of candidates (an unfinished episode: ``inf``)."""
+
+def candidate_spans(site, scorer: OrderScorer, rank: str, samples: int, temperature: float,
+                    other_ranks: tuple[str, ...] = (),
+                    other_samples: int = 0) -> tuple[float, list[float]]:  # fmt: skip
+    """On one site: the planner's makespan and each candidate order's under ``rank``, in the
+    policy's order of candidates, then the first ``other_samples`` of them under each of
+    ``other_ranks`` (an unfinished episode: ``inf``)."""
     scenario, seed = site_episode(site)
     env = multicrane.parallel_env(scenario, decisions="task")
     planner = run_episode(env, TaskPrioritized(env), seed)["makespan"]
@@ -49,9 +55,11 @@ def candidate_spans(site, scorer: OrderScorer, rank: str, samples: int,
     features = component_features(env.unwrapped.mode.task_book(), scenario)
     rng = np.random.default_rng(policy_seed(seed))
     orders = scorer.sampled_orders(features, scenario, samples, temperature, rng)
+    candidates = [(rank, order) for order in orders]
+    candidates += [(other, order) for other in other_ranks for order in orders[:other_samples]]
     spans = []
-    for order in orders:
-        span = run_episode(env, TaskPrioritized(env, rank=rank, order=order), seed)["makespan"]
+    for r, order in candidates:
+        span = run_episode(env, TaskPrioritized(env, rank=r, order=order), seed)["makespan"]
         spans.append(np.inf if span is None else float(span))
     return (np.inf if planner is None else float(planner)), spans
 
@@ -75,13 +83,21 @@ def curve(planner: np.ndarray, spans: np.ndarray) -> list[dict]:
     return rows
 
 
+def _print_row(label: str, row: dict) -> None:
+    print(f"  {label}: {row['makespan']:7.1f}  {row['ratio']:.4f} ({row['site_ratio']:.4f})  "
+          f"longer on {row['longer']:3d}, worst {row['worst']:.3f}")
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scorer", required=True,
                    help="a scorer file, a run directory or a shipped scorer's name")
     p.add_argument("--samples", type=int, default=16, help="K, the candidates per site")
     p.add_argument("--temperature", type=float, nargs="+", default=[0.5])
-    p.add_argument("--rank", default="chain", choices=("list", "chain", "nearest"))
+    p.add_argument("--rank", default="chain", choices=RANKS)
+    p.add_argument("--other-ranks", nargs="+", default=[], choices=RANKS,
+                   help="also play the first --other-samples orders under these ranks")
+    p.add_argument("--other-samples", type=int, default=8)
     p.add_argument("--set", help="a held-out set (else train sites)")
     p.add_argument("--sites", type=int, default=64, help="train sites")
     p.add_argument("--max-components", type=int, default=40)
@@ -95,6 +111,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     if args.samples < 1 or min(args.temperature) <= 0:
         raise SystemExit("--samples must be at least 1 and every --temperature positive")
+    if args.other_ranks and not 1 <= args.other_samples <= args.samples:
+        raise SystemExit(f"--other-samples must be 1 to --samples ({args.samples}), "
+                         f"got {args.other_samples}")
     try:
         scorer = load_scorer(args.scorer)
         named = members(args.set) if args.set else []
@@ -107,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
         sites = draw_train_seeds(rng, args.sites, args.max_components, tuple(args.cranes))
     where = args.set or f"{len(sites)} train sites"
     for temperature in args.temperature:
-        jobs = [(s, scorer, args.rank, args.samples, temperature) for s in sites]
+        jobs = [(s, scorer, args.rank, args.samples, temperature, tuple(args.other_ranks),
+                 args.other_samples) for s in sites]  # fmt: skip
         if args.workers > 1:
             with Pool(args.workers) as pool:
                 rows = pool.map(_job, jobs, chunksize=1)
@@ -116,10 +136,12 @@ def main(argv: list[str] | None = None) -> int:
         planner = np.array([r[0] for r in rows])
         spans = np.array([r[1] for r in rows])
         print(f"{where}, temperature {temperature}: prioritized {planner.mean():.1f}")
-        for row in curve(planner, spans):
-            print(f"  best of {row['samples']:3d}: {row['makespan']:7.1f}  {row['ratio']:.4f} "
-                  f"({row['site_ratio']:.4f})  longer on {row['longer']:3d}, "
-                  f"worst {row['worst']:.3f}")  # fmt: skip
+        for row in curve(planner, spans[:, : args.samples]):
+            _print_row(f"best of {row['samples']:3d}", row)
+        if args.other_ranks:
+            row = curve(planner, spans)[-1]
+            _print_row(f"and the first {args.other_samples} under "
+                       f"{', '.join(args.other_ranks)} ({spans.shape[1]})", row)  # fmt: skip
     return 0
 
 

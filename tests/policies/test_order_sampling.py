@@ -149,8 +149,19 @@ def test_the_probe_reports_what_the_policy_plays(tmp_path, capsys):
     scorer.save(tmp_path / "scorer.json")
     assert sampling.main(["--scorer", str(tmp_path), "--sites", "2", "--max-components", "12",
                           "--samples", "3", "--workers", "1"]) == 0  # fmt: skip
+    _, with_list = sampling.candidate_spans(site_seed, scorer, "chain", 4, 1.0, ("list",), 2)
+    env.reset(seed=site_seed)
+    features = component_features(env.unwrapped.mode.task_book(), env.unwrapped.scenario)
+    orders = scorer.sampled_orders(features, env.unwrapped.scenario, 2, 1.0,
+                                   np.random.default_rng(policy_seed(site_seed)))  # fmt: skip
+    assert with_list[:4] == spans and len(with_list) == 6
+    for order, span in zip(orders, with_list[4:], strict=True):
+        made = TaskPrioritized(env, rank="list", order=order)
+        assert run_episode(env, made, site_seed)["makespan"] == span
     for bad, words in ((["--set", "test-nothing"], "test-nothing"),
-                       (["--samples", "0"], "--samples must be at least 1")):
+                       (["--samples", "0"], "--samples must be at least 1"),
+                       (["--other-ranks", "list", "--other-samples", "20"],
+                        "--other-samples must be 1 to --samples .16., got 20")):
         with pytest.raises(SystemExit, match=words):
             sampling.main(["--scorer", str(tmp_path), *bad])
     with pytest.raises(SystemExit, match="nowhere.json.: no such file or run directory"):
@@ -159,6 +170,11 @@ def test_the_probe_reports_what_the_policy_plays(tmp_path, capsys):
     assert out[0].startswith("2 train sites, temperature 0.5: prioritized")
     assert [line.split(":")[0].strip() for line in out[1:]] == ["best of   1", "best of   2",
                                                                 "best of   3"]  # fmt: skip
+    assert sampling.main(["--scorer", str(tmp_path), "--sites", "2", "--max-components", "12",
+                          "--samples", "3", "--workers", "1", "--other-ranks", "list", "nearest",
+                          "--other-samples", "2"]) == 0  # fmt: skip
+    out = capsys.readouterr().out.splitlines()
+    assert out[-1].split(":")[0].strip() == "and the first 2 under list, nearest (7)"
 
 
 def test_the_curve_takes_the_best_of_the_first_k_candidates():
