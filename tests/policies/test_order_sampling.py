@@ -17,8 +17,9 @@ from conftest import load_tool
 import multicrane
 import policies
 from multicrane.episodes.rollout import run_episode
-from multicrane.scenario.named_sets import train_scenario
+from multicrane.scenario.named_sets import members, train_scenario
 from multicrane.tasks.order_scorer import FEATURES, OrderScorer, component_features
+from multicrane.training.seeding import evaluation_seeds
 from policies.registry import policy_seed
 from policies.task_planners import TaskPrioritized
 
@@ -279,3 +280,22 @@ def test_the_reinforce_trainer_is_a_function_of_its_seed(tmp_path):
     assert one.meta["estimator"] == "reinforce" and one.meta["samples"] == 3
     with pytest.raises(SystemExit):
         es.main(["--out", str(tmp_path / "c"), "--estimator", "reinforce", "--samples", "1"])
+
+
+@pytest.mark.parametrize("index, planner, searched", [(6, 49, 50), (17, 57, 61)])
+def test_the_guard_plays_the_planners_plan_where_every_learned_order_is_longer(index, planner,
+                                                                               searched):
+    """Two test-other sites (7 and 5 cranes, a family `train` never draws) where the shipped
+    seed-0 order's best of 16 is longer than the planner: with the guard the rule plays the
+    planner's makespan; the figures of docs/marl-results.md's guarded search."""
+    scenario, seed = members("test-other")[index].scenario(), evaluation_seeds(1)[0]
+    env = multicrane.parallel_env(scenario, decisions="task")
+
+    def span(**options):
+        made = policies.make("prioritized", env, seed=seed, rank="chain",
+                             scorer="order-es21-s0", samples=16, **options)  # fmt: skip
+        return run_episode(env, made, seed)["makespan"]
+
+    assert run_episode(env, TaskPrioritized(env), seed)["makespan"] == planner
+    assert span() == searched
+    assert span(guard=True) == planner
