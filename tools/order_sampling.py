@@ -33,13 +33,12 @@ import multicrane
 from multicrane.episodes.rollout import run_episode
 from multicrane.scenario.named_sets import draw_train_seeds, members
 from multicrane.tasks.order_scorer import OrderScorer, component_features
+from multicrane.tasks.priority_rule import RANKS
 from policies.registry import policy_seed
 from policies.task_planners import TaskPrioritized, load_scorer
 
 sys.path.insert(0, str(Path(__file__).parent))  # tools/ is not a package
 from order_es import site_episode  # noqa: E402
-
-RANKS = ("list", "chain", "nearest")
 
 
 def candidate_spans(site, scorer: OrderScorer, rank: str, samples: int, temperature: float,
