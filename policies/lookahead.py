@@ -63,13 +63,11 @@ whose choices then depend on the machine's speed (no budget, the default, is det
 
 from __future__ import annotations
 
-import contextlib
-import gc
 import time
 
 import numpy as np
 
-from multicrane.envs.rollout_copy import has_events, rollout_copy
+from multicrane.envs.rollout_copy import collector_paused, has_events, rollout_copy
 from policies.task_planners import TaskPrioritized, _book
 
 UNFINISHED = 10**9  # the makespan of a copy that hits the step limit (or the round's deadline)
@@ -269,20 +267,6 @@ class TaskLookahead:
             if truncations[first] or clock() > deadline:
                 return UNFINISHED
             joint = policy(observations)
-
-
-@contextlib.contextmanager
-def collector_paused(pause: bool):
-    """Python's cyclic garbage collector off inside the block when ``pause`` (and it was on),
-    back on after it (a budgeted round's rollouts: see the module doc)."""
-    paused = pause and gc.isenabled()
-    if paused:
-        gc.disable()
-    try:
-        yield
-    finally:
-        if paused:
-            gc.enable()
 
 
 class LookaheadTeacher:

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from multicrane.envs.decision_modes import task_level
-from multicrane.envs.rollout_copy import has_events, rollout_copy
+from multicrane.envs.rollout_copy import collector_paused, has_events, rollout_copy
 from multicrane.episodes.random_actions import random_legal_action
 from multicrane.sim.simulator import NOBODY
 from multicrane.tasks.order_scorer import OrderScorer, component_features
@@ -109,7 +109,8 @@ class TaskPrioritized:
             candidates.append(("list", None))
         rank, order = candidates[0]
         if len(candidates) > 1:
-            spans = [self._rollout(r, o) for r, o in candidates]
+            with collector_paused():
+                spans = [self._rollout(r, o) for r, o in candidates]
             rank, order = candidates[int(np.argmin(spans))]
         self._rank, self._list_rank = rank, list_ranks(scenario, order)
         self._planned_state = self.env.sim.state
@@ -119,12 +120,11 @@ class TaskPrioritized:
         here (``inf``: truncated)."""
         env = rollout_copy(self.env)
         rule = TaskPrioritized(env, max_searches=self.max_searches, rank=rank, order=order)
-        first = env.possible_agents[0]
         while True:
-            _, _, terminations, truncations, _ = env.step(rule({}))
-            if terminations[first]:
+            terminated, truncated = env.advance(rule({}))  # the rule reads no observations
+            if terminated:
                 return env.sim.state.step_count
-            if truncations[first]:
+            if truncated:
                 return math.inf
 
 

@@ -1,4 +1,4 @@
-"""Checks at the environments' boundary: integer actions, calls before reset, masks handed out.
+"""Checks at the environments' boundary: integer actions, options, calls before reset, masks.
 
 Both environments (``crane_env`` and ``paper_env``) and the episode records use these, so
 one rule holds everywhere: an action is a Python or numpy integer (not a bool, a float or a
@@ -65,3 +65,9 @@ def handed_out(masks: list[np.ndarray]) -> list[np.ndarray]:
     """Copies of the environment's masks for the caller: changing them cannot change what
     the environment (strict mode included) takes as legal."""
     return [m.copy() for m in masks]
+
+
+def one_of(option: str, value: Any, allowed: tuple) -> None:
+    """ValueError naming the option and its allowed values when ``value`` is not one."""
+    if value not in allowed:
+        raise ValueError(f"{option} must be one of {allowed}, got {value!r}")

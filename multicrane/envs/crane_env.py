@@ -17,6 +17,7 @@ from multicrane.envs.boundary import (
     as_integer,
     crane_count,
     handed_out,
+    one_of,
     require_reset,
 )
 from multicrane.envs.decision_modes import DEFAULT_DECISIONS, DecisionMode, decision_mode
@@ -156,7 +157,9 @@ class MultiCraneEnv(ParallelEnv):
         info_mask: bool | None = None,
         events: EventSpec | str | None = None,
     ):
-        _check_choices(render_mode, self.metadata["render_modes"], reward_mode, obs_format)
+        one_of("render_mode", render_mode, (None, *self.metadata["render_modes"]))
+        one_of("reward_mode", reward_mode, REWARD_MODES)
+        one_of("obs_format", obs_format, OBS_FORMATS)
         self.reward_mode = reward_mode
         self.obs_format = obs_format
         self.info_events = bool(info_events)
@@ -207,6 +210,7 @@ class MultiCraneEnv(ParallelEnv):
         self._image: SiteImage | None = None
         self._rng: np.random.Generator | None = None
         self._masks: list[np.ndarray] = []  # the env's own; callers get copies (_shown)
+        self._observed = True  # False after ``advance``: masks and state not built yet
         self._shown: list[np.ndarray] = []
 
     # -- spaces ------------------------------------------------------------------------------
@@ -244,20 +248,7 @@ class MultiCraneEnv(ParallelEnv):
         return observations, infos
 
     def step(self, actions: dict[str, Any]):
-        if not self.agents:
-            raise RuntimeError("step() called on a finished episode: call reset() first")
-        joint = self._joint_action(actions)
-        mark = len(self.sim.site_log)
-        r, terms, per_crane, facts = self.mode.step(joint)
-        self.cycles += 1
-        self.last_events = per_crane
-        self.last_site_events = tuple(self.sim.site_log[mark:])
-        complete = self.sim.done
-        self.total_reward += r
-        truncated = not complete and (
-            self.sim.state.step_count >= self.step_limit
-            or (self.max_cycles is not None and self.cycles >= self.max_cycles)
-        )
+        r, terms, facts, complete, truncated = self._play(actions, "step")
         observations = self._observe()
         agents = self.possible_agents
         if self.reward_mode == "team":
@@ -273,6 +264,32 @@ class MultiCraneEnv(ParallelEnv):
             self._human_view().step(self, r)
         return observations, rewards, terminations, truncations, infos
 
+    def advance(self, actions: dict[str, Any]) -> tuple[bool, bool]:
+        """``step`` for rollouts on copies by rules that read no observations: it builds none
+        (nor the masks and state, until asked for) and returns ``(terminated, truncated)``."""
+        _, _, _, complete, truncated = self._play(actions, "advance")
+        self._observed = False
+        self.agents = [] if complete or truncated else self.agents
+        return complete, truncated
+
+    def _play(self, actions: dict[str, Any], what: str):
+        """``step``'s move: (reward, terms, task facts, complete, truncated)."""
+        if not self.agents:
+            raise RuntimeError(f"{what}() called on a finished episode: call reset() first")
+        joint = self._joint_action(actions)
+        mark = len(self.sim.site_log)
+        r, terms, per_crane, facts = self.mode.step(joint)
+        self.cycles += 1
+        self.last_events = per_crane
+        self.last_site_events = tuple(self.sim.site_log[mark:])
+        complete = self.sim.done
+        self.total_reward += r
+        truncated = not complete and (
+            self.sim.state.step_count >= self.step_limit
+            or (self.max_cycles is not None and self.cycles >= self.max_cycles)
+        )
+        return r, terms, facts, complete, truncated
+
     def _infos(self, terms, facts: TaskStepFacts | None) -> dict[str, dict[str, Any]]:
         return crane_infos(
             self.possible_agents,
@@ -286,6 +303,8 @@ class MultiCraneEnv(ParallelEnv):
         )
 
     def _joint_action(self, actions: dict[str, Any]) -> list[int]:
+        if self.strict and not self._observed:
+            self._observe()  # the masks after an ``advance``
         joint = []
         for i, agent in enumerate(self.possible_agents):
             if agent not in actions:
@@ -299,6 +318,7 @@ class MultiCraneEnv(ParallelEnv):
 
     def _observe(self) -> dict[str, Any]:
         obs, masks = self.mode.observe()
+        self._observed = True
         self._masks = masks
         # The global state is built when asked for: at the motion level from the observer,
         # which rebuilds the rows it last returned (the caller may have changed them).
@@ -329,6 +349,8 @@ class MultiCraneEnv(ParallelEnv):
     def action_masks(self) -> dict[str, np.ndarray]:
         """The current legal-action mask of every crane (copies)."""
         require_reset(bool(self._masks), "action_masks")
+        if not self._observed:
+            self._observe()
         return {a: m.copy() for a, m in zip(self.possible_agents, self._masks, strict=True)}
 
     def state(self) -> np.ndarray:
@@ -336,6 +358,8 @@ class MultiCraneEnv(ParallelEnv):
         in crane order; it holds the site planes, the component table and every crane's own
         features, for a centralised critic."""
         require_reset(bool(self._masks), "state")
+        if not self._observed:
+            self._observe()
         if self._state_due:
             np.concatenate(self.observer.last_rows(), out=self._state)
             self._state_due = False
@@ -365,15 +389,6 @@ class MultiCraneEnv(ParallelEnv):
 
 
 MultiCraneEnv.__doc__ += "\n" + indent(table_text(), "    ") + "\n"
-
-
-def _check_choices(render_mode, render_modes, reward_mode: str, obs_format: str) -> None:
-    if render_mode is not None and render_mode not in render_modes:
-        raise ValueError(f"render_mode must be None or one of {render_modes}, got {render_mode!r}")
-    if reward_mode not in REWARD_MODES:
-        raise ValueError(f"reward_mode must be one of {REWARD_MODES}, got {reward_mode!r}")
-    if obs_format not in OBS_FORMATS:
-        raise ValueError(f"obs_format must be one of {OBS_FORMATS}, got {obs_format!r}")
 
 
 __all__ = ["MultiCraneEnv", "EventType", "describe_action"]

@@ -6,11 +6,17 @@ site's) and starts the episode's trace afresh: a rollout is never recorded, and 
 which grows with the episode, was half of a copy's cost. ``has_events(env)``: the site has
 events; a copy then holds the episode's whole event schedule, so a rollout would see late
 components and breakdowns before they happen, and planners that play copies refuse it.
+``collector_paused(pause)``: a block in which Python's cyclic garbage collector does not run
+(rollouts make many objects, and a full collection scans every object of the process,
+trained models included; the copies hold almost no reference cycles, so reference counting
+frees them and nothing piles up).
 """
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import gc
 
 
 def has_events(env) -> bool:
@@ -28,3 +34,17 @@ def rollout_copy(env):
     for trace in (mode.trace, mode.trace_events, mode.trace_rewards, mode.decisions):
         memo[id(trace)] = []
     return copy.deepcopy(env, memo)
+
+
+@contextlib.contextmanager
+def collector_paused(pause: bool = True):
+    """Python's cyclic garbage collector off inside the block when ``pause`` (and it was on),
+    back on after it (module doc)."""
+    paused = pause and gc.isenabled()
+    if paused:
+        gc.disable()
+    try:
+        yield
+    finally:
+        if paused:
+            gc.enable()

@@ -96,17 +96,15 @@ class TaskMode:
         terms_sum = [0.0] * n
         total = 0.0
         elapsed = busy = 0
+        held = sim.state.held  # a list the simulator changes in place
         while True:
             motion = book.motion(task_events)
-            held_before = [c != NOBODY for c in sim.state.held]
+            held_before = [c != NOBODY for c in held]
             out, r, terms, paper = physical_step(sim, self.rng, settings.reward, motion)
             elapsed += 1
-            busy += sum(
-                1 for i in range(n) if held_before[i] or sim.state.held[i] != NOBODY
-            )
+            busy += sum([b or c != NOBODY for b, c in zip(held_before, held, strict=True)])
             total += r
-            for i in range(n):
-                terms_sum[i] += terms[i]
+            terms_sum = [a + b for a, b in zip(terms_sum, terms, strict=True)]
             for e in out.events:
                 per_crane[e.crane].append(e)
             self.trace.append(motion)

@@ -43,7 +43,7 @@ from multicrane.core.codes import WAIT, Status
 from multicrane.sim.event_knowledge import EventView, event_view, frozen_components
 from multicrane.tasks.carrier import Carrier
 from multicrane.tasks.reservation_arrays import ReservationArrays
-from multicrane.tasks.reservations import INF, goal_position, shape_of
+from multicrane.tasks.reservations import INF, shape_of
 
 CLOSED = -2  # the owner of a closed cell's reservations (components are 0..C-1)
 _IN_TRANSIT = int(Status.IN_TRANSIT)
@@ -155,7 +155,7 @@ class EventCarrier(Carrier):
         crane = int(sim.state.holder[comp])
         taken = self.taken_targets()
         for t in sim.ready_targets(comp):
-            if t in taken or goal_position(rel, sim.site.target_cells[t]) != start:
+            if t in taken or self._goals[rel, t] != start:
                 continue
             # A breakdown stopped it on this target's pose before the target was ready: it
             # arrives only by moving in, so it steps out and back.

@@ -53,11 +53,28 @@ def interchangeable_classes(site, order) -> dict[tuple, list[int]]:
 def yard_neighbours(site, pickup) -> list[int]:
     """Per component, how many others lie in the yard next to it: a pick-up cell within one
     cell of its own, horizontally (any height); 0 for a pre-built component."""
-    columns = [{tuple(site.cell(x)[:2]) for x in cells} for cells in pickup]
-    around = [{(x + dx, y + dy) for x, y in cols for dx in (-1, 0, 1) for dy in (-1, 0, 1)}
-              for cols in columns]  # fmt: skip
-    return [sum(1 for j, other in enumerate(columns) if j != c and other & around[c])
-            if columns[c] else 0 for c in range(len(columns))]  # fmt: skip
+    owner, xs, ys = [], [], []
+    for c, cells in enumerate(pickup):
+        for j in cells:
+            x, y, _ = site.cell(j)
+            owner.append(c)
+            xs.append(x)
+            ys.append(y)
+    n = len(pickup)
+    if not owner:
+        return [0] * n
+    x0, y0 = min(xs) - 1, min(ys) - 1  # one free column on every side for the dilation
+    X, Y = max(xs) - x0 + 2, max(ys) - y0 + 2
+    columns = np.zeros((n, X, Y), dtype=bool)  # each component's pick-up columns
+    columns[owner, np.subtract(xs, x0), np.subtract(ys, y0)] = True
+    around = columns.copy()  # and every column next to one of them
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            around[:, 1:-1, 1:-1] |= columns[:, 1 + dx : X - 1 + dx, 1 + dy : Y - 1 + dy]
+    flat = columns.reshape(n, -1).astype(np.float32)
+    touch = (around.reshape(n, -1).astype(np.float32) @ flat.T) > 0  # (c, j): j next to c
+    has = flat.any(axis=1)
+    return np.where(has, touch.sum(axis=1) - has, 0).astype(int).tolist()
 
 
 def component_features(book: TaskBook, scenario) -> np.ndarray:

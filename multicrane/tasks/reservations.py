@@ -164,19 +164,36 @@ def goal_position(rel: tuple[int, ...], target_cells: list[int]) -> int | None:
     return None
 
 
+class GoalPoses(dict):
+    """``goal_position`` per (shape, target) of one site, each computed once:
+    ``poses[rel, target]``."""
+
+    def __init__(self, site):
+        super().__init__()
+        self.site = site
+
+    def __missing__(self, key: tuple[tuple[int, ...], int]) -> int | None:
+        rel, target = key
+        goal = self[key] = goal_position(rel, self.site.target_cells[target])
+        return goal
+
+
 def stop_poses(
-    sim: Simulator, comp: int, rel: tuple[int, ...], target: int, planned: set[int]
-) -> set[int]:
+    sim: Simulator, comp: int, rel: tuple[int, ...], target: int, planned: set[int],
+    goals: GoalPoses | None = None,
+) -> set[int]:  # fmt: skip
     """Poses (of this shape) of the component's compatible targets other than ``target`` that
     are or may become ready during a path: free, with every support filled or in ``planned``
-    (the goals of other paths). A path entering one would arrive there instead."""
+    (the goals of other paths). A path entering one would arrive there instead. ``goals``:
+    the site's cached goal poses (computed here without)."""
     site, filled_by = sim.site, sim.state.filled_by
+    goals = GoalPoses(site) if goals is None else goals
     out = set()
     for t in site.compatible[comp]:
         if t == target or filled_by[t] != NOBODY:
             continue
         if all(filled_by[s] != NOBODY or s in planned for s in site.target_supports[t]):
-            g = goal_position(rel, site.target_cells[t])
+            g = goals[rel, t]
             if g is not None:
                 out.add(g)
     return out

@@ -11,12 +11,8 @@ same states expanded in the same order, the same path and the same count of expa
 
 from __future__ import annotations
 
-import heapq
-
 import numba
 import numpy as np
-from numba import types
-from numba.typed import Dict
 
 CELL, FROM, TO, OWNER = range(4)  # the columns of a reservation row
 
@@ -100,8 +96,8 @@ def goal_free_from_kernel(rows, n_rows, comp, rel, goal, t_start, inf):
 def _cell_lists(rows, n_rows, comp, t_start, n_cells):
     """Per cell, a linked list of the rows that can conflict with ``comp``'s search: other
     owners, holding until ``t_start`` or later (every query asks about ``t_start`` on)."""
-    head = np.full(n_cells, -1, dtype=np.int64)
-    nxt = np.empty(max(n_rows, 1), dtype=np.int64)
+    head = np.full(n_cells, -1, dtype=np.int32)
+    nxt = np.empty(max(n_rows, 1), dtype=np.int32)
     for i in range(n_rows):
         c = rows[i, CELL]
         if rows[i, OWNER] != comp and rows[i, TO] >= t_start and 0 <= c < n_cells:
@@ -151,36 +147,129 @@ def space_time_kernel(
     )  # fmt: skip
 
 
+_EMPTY = -1  # a free slot of the state table (state keys are never negative)
+_MIX = np.uint64(0x9E3779B97F4A7C15)  # Fibonacci hashing: spreads consecutive keys
+
+
+@numba.njit(cache=True, inline="always")
+def _slot(keys, key, mask):
+    """The slot of ``key`` in the open-addressing table ``keys`` (linear probing): where it
+    is, or the free slot where it goes."""
+    i = np.int64((np.uint64(key) * _MIX) >> np.uint64(20)) & mask
+    while keys[i] != _EMPTY and keys[i] != key:
+        i = (i + 1) & mask
+    return i
+
+
+@numba.njit(cache=True)
+def _grown(keys, parents):
+    """The state table at twice its size, every entry moved over."""
+    bigger = np.full(2 * keys.size, _EMPTY, dtype=np.int64)
+    moved = np.empty(2 * keys.size, dtype=np.int64)
+    mask = bigger.size - 1
+    for i in range(keys.size):
+        if keys[i] != _EMPTY:
+            j = _slot(bigger, keys[i], mask)
+            bigger[j] = keys[i]
+            moved[j] = parents[i]
+    return bigger, moved
+
+
+@numba.njit(cache=True)
+def _push(levels, sizes, level, key):
+    """Add ``key`` to the binary min-heap ``levels[level, :sizes[level]]``; returns the
+    levels (a bigger copy when that heap was full)."""
+    size = sizes[level]
+    if size == levels.shape[1]:
+        bigger = np.empty((levels.shape[0], 2 * size), dtype=np.int64)
+        bigger[:, :size] = levels
+        levels = bigger
+    heap = levels[level]
+    i = size
+    while i > 0:
+        up = (i - 1) >> 1
+        if heap[up] <= key:
+            break
+        heap[i] = heap[up]
+        i = up
+    heap[i] = key
+    sizes[level] = size + 1
+    return levels
+
+
+@numba.njit(cache=True)
+def _pop(levels, sizes, level):
+    """Remove and return the least key of the heap ``levels[level, :sizes[level]]``."""
+    heap = levels[level]
+    size = sizes[level] - 1
+    sizes[level] = size
+    top, last = heap[0], heap[size]
+    i = 0
+    while True:
+        child = 2 * i + 1
+        if child >= size:
+            break
+        if child + 1 < size and heap[child + 1] < heap[child]:
+            child += 1
+        if last <= heap[child]:
+            break
+        heap[i] = heap[child]
+        i = child
+    heap[i] = last
+    return top
+
+
 @numba.njit(cache=True)
 def _astar(
     rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
     max_expansions,
 ):  # fmt: skip
-    """The A* loop of ``reservations._astar``; a state ``(p, t)`` is the key
-    ``p * span + t - t_start`` and its parent's key is kept in a typed dict (-1: the start)."""
+    """The A* loop of ``reservations._astar``. A state ``(p, t)`` is the key
+    ``p * span + t - t_start``; its parent's key is kept in an open-addressing table
+    (``keys``, ``parents``; -1: the start), grown before it is half full.
+
+    The states pop in the order of the specification's heap of ``(f, h, t, p)``: with a
+    consistent heuristic (breadth-first distances change by one a move at most) a pushed
+    state's ``f`` is the popped one's plus 0, 1 or 2, so every open ``f`` lies in
+    ``f_now .. f_now + 2``; one heap per ``f`` (rows ``f % 3``) orders its states by
+    ``h * n + p``, since ``t = t_start + f - h`` is then fixed."""
     n = ok.size
     span = t_cap - t_start + 1
-    parent = Dict.empty(key_type=types.int64, value_type=types.int64)
-    parent[start * span] = -1
-    h0 = np.int64(h[start])
-    heap = [(h0, h0, t_start, start)]
+    keys = np.full(1024, _EMPTY, dtype=np.int64)
+    parents = np.empty(1024, dtype=np.int64)
+    mask = keys.size - 1
+    i = _slot(keys, start * span, mask)
+    keys[i], parents[i] = start * span, -1
+    count = 1
+    f_now = np.int64(h[start])
+    levels = np.empty((3, 256), dtype=np.int64)  # the heap of f at row f % 3
+    sizes = np.zeros(3, dtype=np.int64)
+    levels = _push(levels, sizes, f_now % 3, f_now * n + start)
     expansions = 0
-    found = -1
-    while heap:
-        _, hp, t, p = heapq.heappop(heap)
+    while sizes[0] or sizes[1] or sizes[2]:
+        if sizes[f_now % 3] == 0:
+            f_now += 1
+            continue
+        hp_p = _pop(levels, sizes, f_now % 3)
+        hp, p = hp_p // n, hp_p % n
+        t = t_start + f_now - hp
         expansions += 1
         if expansions > max_expansions:
             break
         if t >= t_cap:
             continue
+        if 2 * (count + len(deltas) + 1) > keys.size:  # room for this expansion's states
+            keys, parents = _grown(keys, parents)
+            mask = keys.size - 1
         t1 = t + 1
         if _held(rows, head, nxt, rel, p, t1, t1):
             continue  # someone enters these cells at t1: it had to leave before
         here = p * span + t - t_start
-        key = here + 1
-        if p != goal and key not in parent:  # standing in the goal pose is no arrival
-            parent[key] = here
-            heapq.heappush(heap, (t1 - t_start + hp, hp, t1, p))
+        i = _slot(keys, here + 1, mask)
+        if p != goal and keys[i] == _EMPTY:  # standing in the goal pose is no arrival
+            keys[i], parents[i] = here + 1, here
+            count += 1
+            levels = _push(levels, sizes, (f_now + 1) % 3, hp * n + p)
         for d in deltas:
             q = p + d
             if q < 0 or q >= n or not ok[q] or stop[q]:
@@ -189,26 +278,30 @@ def _astar(
             if hq < 0:
                 continue
             key = q * span + t1 - t_start
-            if key in parent:
+            i = _slot(keys, key, mask)
+            if keys[i] != _EMPTY or _held(rows, head, nxt, rel, q, t, t1):
                 continue
-            if _held(rows, head, nxt, rel, q, t, t1):
+            if q == goal and t1 < free_from:
                 continue
+            keys[i], parents[i] = key, here
             if q == goal:
-                if t1 < free_from:
-                    continue
-                parent[key] = here
-                found = key
-                break
-            parent[key] = here
-            heapq.heappush(heap, (t1 - t_start + hq, hq, t1, q))
-        if found >= 0:
-            break
-    if found < 0:
-        return np.empty(0, dtype=np.int64), expansions
+                return _path(keys, parents, key, span), expansions
+            count += 1
+            f = t1 - t_start + hq
+            if f - f_now > 2 or f < f_now:
+                raise ValueError("the A* heuristic must be consistent (breadth-first moves)")
+            levels = _push(levels, sizes, f % 3, hq * n + q)
+    return np.empty(0, dtype=np.int64), expansions
+
+
+@numba.njit(cache=True)
+def _path(keys, parents, found, span):
+    """The positions from the start to the state ``found``, following the parents."""
+    mask = keys.size - 1
     length = (found % span) + 1  # one position per time step from t_start
     path = np.empty(length, dtype=np.int64)
     node = found
-    for i in range(length - 1, -1, -1):
-        path[i] = node // span
-        node = parent[node]
-    return path, expansions
+    for k in range(length - 1, -1, -1):
+        path[k] = node // span
+        node = parents[_slot(keys, node, mask)]
+    return path

@@ -43,9 +43,7 @@ class ShapeCache:
         key = status.tobytes()
         if key != self._base_key:
             free = sim.state.occ == FREE
-            for comp in range(sim.site.n_components):
-                if status[comp] == _IN_TRANSIT:
-                    free[sim.state.cells[comp]] = True
+            free[_cells_of(sim, status == _IN_TRANSIT)] = True
             self._base_key, self._base_free, self._fit = key, free, {}
         ok = self._fit.get((rel, zone))
         if ok is None:
@@ -86,11 +84,15 @@ class ShapeCache:
         if fit is None:
             status = sim.state.status
             free = ~self.walls
-            for comp in range(sim.site.n_components):
-                if status[comp] >= _ARRIVED:
-                    free[sim.state.cells[comp]] = False
+            free[_cells_of(sim, status >= _ARRIVED)] = False
             fit = fits_everywhere(free, rel)
             if zone >= 0:
                 fit &= self.zone_fit(sim, rel, zone)
             self._h_fit[(rel, zone)] = fit
         return fit
+
+
+def _cells_of(sim: Simulator, chosen: np.ndarray) -> list[int]:
+    """The cells of the components ``chosen`` (a bool per component) marks, in one list."""
+    cells = sim.state.cells
+    return [j for comp in np.flatnonzero(chosen).tolist() for j in cells[comp]]

@@ -13,7 +13,7 @@ import numpy as np
 
 from multicrane.sim.shortest_paths import UNREACHABLE, fits_everywhere
 from multicrane.sim.simulator import FREE, Simulator
-from multicrane.tasks.reservations import goal_position
+from multicrane.tasks.reservations import GoalPoses
 from multicrane.tasks.search_kernels import breadth_first_kernel
 
 
@@ -25,8 +25,8 @@ class StaticPaths:
         self.sim = sim
         self.free = sim.site.static == FREE
         self._fit: dict[tuple, np.ndarray] = {}
-        self._dist: dict[tuple, list[int]] = {}  # as lists: read one entry at a time
-        self._goal: dict[tuple, int | None] = {}  # (shape, target) -> the goal pose
+        self._dist: dict[tuple, np.ndarray] = {}  # int16 where every distance fits
+        self._goal = GoalPoses(sim.site)
         self._deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
 
     def length(self, pickup: list[int], target: int, zone: int) -> int:
@@ -42,16 +42,13 @@ class StaticPaths:
         out = []
         for target in targets:
             dist = self._distances(rel, target, zone)
-            out.append(UNREACHABLE if dist is None else dist[start])
+            out.append(UNREACHABLE if dist is None else int(dist[start]))
         return out
 
-    def _distances(self, rel: tuple[int, ...], target: int, zone: int) -> list[int] | None:
+    def _distances(self, rel: tuple[int, ...], target: int, zone: int) -> np.ndarray | None:
         """Moves from every position of the shape to the target's pose (cached); None when
         no pose of the shape covers the target's cells."""
-        if (rel, target) not in self._goal:
-            cells = self.sim.site.target_cells[target]
-            self._goal[(rel, target)] = goal_position(rel, cells)
-        goal = self._goal[(rel, target)]
+        goal = self._goal[rel, target]
         if goal is None:
             return None
         key = (rel, goal, zone)
@@ -63,6 +60,8 @@ class StaticPaths:
                 if zone >= 0:
                     fit &= fits_everywhere(self.sim.site.reach[zone], rel)
                 self._fit[(rel, zone)] = fit
-            dist = breadth_first_kernel(fit, goal, self._deltas).tolist()
+            dist = breadth_first_kernel(fit, goal, self._deltas)
+            if dist.max() <= np.iinfo(np.int16).max:  # a quarter of a list's memory
+                dist = dist.astype(np.int16)
             self._dist[key] = dist
         return dist

@@ -4,6 +4,7 @@ state, ``max_cycles``, ``np_random``, the human render mode and ``gymnasium.make
 from __future__ import annotations
 
 import builtins
+import re
 
 import gymnasium
 import numpy as np
@@ -221,3 +222,13 @@ def test_supersuit_frame_skip_uses_np_random():
     for _agent in aec.agent_iter(6):
         _, _, term, trunc, _ = aec.last()
         aec.step(None if term or trunc else 6)
+
+
+@pytest.mark.parametrize(("option", "value"), [
+    ("reward_mode", "once"), ("obs_format", "image"), ("render_mode", "video"),
+    ("obs_format", None), ("reward_mode", ["team"]),
+])  # fmt: skip
+def test_a_choice_outside_its_list_is_named_with_the_list(option, value):
+    expected = f"{option} must be one of .*, got {re.escape(repr(value))}"
+    with pytest.raises(ValueError, match=expected):
+        multicrane.parallel_env("e2s2", **{option: value})

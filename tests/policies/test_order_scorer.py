@@ -83,6 +83,31 @@ def test_yard_neighbours_counts_the_components_next_to_each(pickup, expected):
     assert yard_neighbours(_Grid, pickup) == expected
 
 
+def _yard_neighbours_reference(site, pickup) -> list[int]:
+    """The definition, with sets: the other components with a pick-up column within one
+    column of one of this component's."""
+    columns = [{tuple(site.cell(x)[:2]) for x in cells} for cells in pickup]
+    around = [{(x + dx, y + dy) for x, y in cols for dx in (-1, 0, 1) for dy in (-1, 0, 1)}
+              for cols in columns]  # fmt: skip
+    return [sum(1 for j, other in enumerate(columns) if j != c and other & around[c])
+            if columns[c] else 0 for c in range(len(columns))]  # fmt: skip
+
+
+def test_yard_neighbours_match_the_set_definition_on_drawn_yards():
+    scenarios = ["hall-4c", "precast-house", "e4s4"]
+    scenarios += [m.scenario() for name in ("test-large", "test-other") for m in members(name)[:2]]
+    counts = []
+    for scenario in scenarios:
+        env = multicrane.parallel_env(scenario, decisions="task")
+        for seed in (0, 5):
+            env.reset(seed=seed)
+            sim = env.unwrapped.sim
+            expected = _yard_neighbours_reference(sim.site, sim.state.pickup)
+            assert yard_neighbours(sim.site, sim.state.pickup) == expected
+            counts += expected
+    assert 0 in counts and max(counts) >= 3  # lone components and crowded ones were checked
+
+
 def test_the_order_follows_the_scores_with_ties_in_list_order():
     _, base = _reset("hall-4c", 4, 0)
     features = component_features(base.mode.task_book(), base.scenario)

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 import multicrane
+from multicrane.scenario.named_sets import members
 from multicrane.sim.shortest_paths import UNREACHABLE
+from multicrane.tasks.reservations import GoalPoses, goal_position
 from multicrane.tasks.static_paths import StaticPaths
 
 
@@ -48,3 +50,39 @@ def test_the_reset_timing_tool_runs(capsys):
     load_tool("task_reset_speed").main("e3s2", 2, 3)
     out = capsys.readouterr().out
     assert out.startswith("e3s2, 2 cranes: ") and out.rstrip().endswith("3 resets")
+
+
+def test_the_first_decision_timing_tool_runs(capsys):
+    """``tools/first_decision.py`` (docs/performance.md, "Planning on large sites") on a
+    held-out member with the guarded search, and an unknown member named."""
+    from conftest import load_tool
+
+    tool = load_tool("first_decision")
+    name = members("test-other")[0].name
+    tool.main([name, "prioritized:rank=chain,samples=2,guard=true,scorer=order-es21-s0"])
+    out = capsys.readouterr().out
+    assert out.startswith(f"{name}: reset ") and "first decision" in out and "MiB" in out
+    with pytest.raises(SystemExit, match="no such member of test-other"):
+        tool.main(["test-other/nowhere-s1", "prioritized"])
+
+
+@pytest.mark.parametrize("scenario", ["hall-4c", "frame2-3c", "e4s4", "precast-house"])
+def test_the_cached_goal_poses_are_goal_position(scenario):
+    """``GoalPoses`` (the carrier's and the static paths' cache) answers ``goal_position``
+    for every component's shape and target, a pose or None, asked twice."""
+    env = multicrane.parallel_env(scenario, decisions="task")
+    env.reset(seed=3)
+    site, state = env.sim.site, env.sim.state
+    poses = GoalPoses(site)
+    found = missing = 0
+    for _ in range(2):
+        for pick in state.pickup:
+            if not pick:
+                continue
+            rel = tuple(j - pick[0] for j in pick)
+            for t in range(len(site.target_cells)):
+                expected = goal_position(rel, site.target_cells[t])
+                assert poses[rel, t] == expected
+                found += expected is not None
+                missing += expected is None
+    assert found and missing  # both answers were checked
