@@ -27,7 +27,8 @@ walls and placed components (``ShapeCache.heuristic``; admissible, since yard co
 components in transit only add detours). A time cap (shortest length + ``slack``) and an
 expansion cap bound each search. Positions in ``stops`` (poses of other targets the component
 would arrive at) are never entered; the goal is entered only once no other reservation touches
-its cells from then on.
+its cells from then on (a search whose goal is held up to its time cap fails at once, without
+expanding a state: no path could arrive in time).
 
 **Specification and fast path.** ``ReservationTable`` and ``space_time_search`` here are the
 readable specification; the carrier runs the same search compiled, on the same reservations
@@ -235,6 +236,8 @@ def space_time_search(
     if start == goal and lifted_onto_goal_arrives:
         return ([start] if t_start >= free_from else None), 0
     t_cap = t_start + h0 + slack
+    if free_from >= t_cap:  # a move in needs the goal free the step before it too
+        return None, 0  # the goal is held up to the time cap: no arrival in time
     found, parent, expansions = _astar(
         res, comp, rel, start, t_start, goal, stops, ok, h, deltas, t_cap, free_from,
         max_expansions,

@@ -140,6 +140,8 @@ def space_time_kernel(
             return np.full(1, start, dtype=np.int64), 0
         return np.empty(0, dtype=np.int64), 0
     t_cap = t_start + h0 + slack
+    if free_from >= t_cap:  # held up to the time cap: no arrival in time (specification)
+        return np.empty(0, dtype=np.int64), 0
     head, nxt = _cell_lists(rows, n_rows, comp, t_start, ok.size)
     return _astar(
         rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,

@@ -10,6 +10,7 @@ legal tasks, and every search is run both ways.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -121,6 +122,30 @@ def test_compiled_search_is_the_specification(grid, both, data):
     free_from = goal_free_from(spec, comp, rel, goal, t_start)
     kernel = goal_free_from_kernel(arrays.rows, arrays.n, comp, np.array(rel), goal, t_start, INF)
     assert (free_from if free_from is not None else -1) == kernel
+
+
+@pytest.mark.parametrize(("held_until", "arrival"), [(None, 4), (10, 12), (11, None),
+                                                      (40, None)])  # fmt: skip
+def test_a_goal_held_up_to_the_time_cap_fails_at_once(held_until, arrival):
+    """Start and goal 4 moves apart, slack 8: the time cap is step 12, the last arrival. A
+    move into the goal at ``t`` needs it free at ``t - 1`` and ``t``: held until 10, it is
+    entered at 12; held until 11 or later it cannot be entered in time, and both searches
+    fail without expanding a state."""
+    free = np.array([_inside(p) for p in range(SIDE**3)])
+    ok = fits_everywhere(free, (0,))
+    start, goal = (SIDE + 1) * SIDE + 1, (SIDE + 1) * SIDE + 5  # (1, 1, 1) and (1, 1, 5)
+    h = breadth_first(ok, [goal], DELTAS)
+    assert h[start] == 4
+    spec, arrays = ReservationTable(), ReservationArrays()
+    if held_until is not None:
+        for table in (spec, arrays):
+            table.hold([goal], 0, held_until, 9)
+    path, expansions = _both(spec, arrays, 0, (0,), start, 0, goal, set(), ok, h, 8, True,
+                             DELTAS)  # fmt: skip
+    if arrival is None:
+        assert path is None and expansions == 0
+    else:
+        assert path[0] == start and path[-1] == goal and len(path) - 1 == arrival
 
 
 def test_copies_and_replacement_are_independent():
