@@ -25,7 +25,7 @@ def breadth_first_kernel(ok, goal, deltas):
     dist = np.full(n, -1, dtype=np.int32)
     if not ok[goal]:
         return dist
-    queue = np.empty(n, dtype=np.int64)
+    queue = np.empty(n, dtype=np.int32)  # positions (a grid has fewer than 2**31)
     queue[0] = goal
     dist[goal] = 0
     head, tail = 0, 1
