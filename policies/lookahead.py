@@ -253,18 +253,25 @@ class TaskLookahead:
 
     def _finish_by(self, base, joint: dict) -> int:
         """The makespan of playing ``joint`` on a copy, then ``base`` (one rollout);
-        ``UNFINISHED`` if it hits the step limit or runs past the round's deadline."""
+        ``UNFINISHED`` if it hits the step limit or runs past the round's deadline. A base
+        that reads no observations (``reads_observations = False``: the prioritized rule)
+        plays it with ``env.advance``, which builds none."""
         self.rollouts += 1
         env = rollout_copy(self.env)
         first = env.possible_agents[0]
         policy = base(env)
+        blind = not getattr(policy, "reads_observations", True)  # a rule: no observations
         deadline, clock = self._deadline, time.perf_counter
-        observations = None
+        observations = {}
         while True:
-            observations, _, terminations, truncations, _ = env.step(joint)
-            if terminations[first]:
+            if blind:
+                terminated, truncated = env.advance(joint)
+            else:
+                observations, _, terminations, truncations, _ = env.step(joint)
+                terminated, truncated = terminations[first], truncations[first]
+            if terminated:
                 return env.sim.state.step_count
-            if truncations[first] or clock() > deadline:
+            if truncated or clock() > deadline:
                 return UNFINISHED
             joint = policy(observations)
 

@@ -58,6 +58,8 @@ def _book(env):
 class TaskPrioritized:
     """The prioritized rule over tasks (see the module doc); ``stats`` are the carrier's."""
 
+    reads_observations = False  # it reads the task book: a rollout may ``env.advance``
+
     def __init__(self, env, seed=None, max_searches: int = 8, rank: str | None = None,
                  order=None, scorer=None, guard: bool = False, samples: int = 1,
                  temperature: float = 0.5):  # fmt: skip

@@ -76,6 +76,25 @@ def test_lookahead_is_deterministic():
     assert runs[0] == runs[1]
 
 
+class _SeeingPrioritized(TaskPrioritized):
+    """The rule, saying it reads observations: the look-ahead's rollouts then ``step``."""
+
+    reads_observations = True
+
+
+@pytest.mark.parametrize(("name", "n", "seed"), [("e3s2", 2, 1), ("hall-4c", 3, 0)])
+def test_rule_rollouts_by_advance_choose_as_rollouts_by_step(name, n, seed):
+    """A base that reads no observations (the prioritized rule) finishes its copies with
+    ``env.advance``; a round then chooses exactly as when the copies ``step``."""
+    runs = []
+    for base in (None, _SeeingPrioritized):
+        env = task_env(name, n)
+        look = TaskLookahead(env, base=base)
+        runs.append(run_episode(env, look, seed=seed, record=True)["actions"])
+        assert look.rollouts > 0
+    assert runs[0] == runs[1]
+
+
 def test_no_candidates_still_compares_waiting():
     env = task_env("e2s2", 2)
     episode = run_episode(env, policies.make("lookahead", env, seed=0, candidates=0), seed=0)
