@@ -143,9 +143,16 @@ def space_time_kernel(
     if free_from >= t_cap:  # held up to the time cap: no arrival in time (specification)
         return np.empty(0, dtype=np.int64), 0
     head, nxt = _cell_lists(rows, n_rows, comp, t_start, ok.size)
+    if ok.size * (t_cap - t_start + 1) < 2**31:  # every state key fits 32 bits: half the table
+        keys, parents = np.full(1024, _EMPTY, np.int32), np.empty(1024, np.int32)
+        return _astar(
+            rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
+            max_expansions, keys, parents,
+        )  # fmt: skip
+    keys, parents = np.full(1024, _EMPTY, np.int64), np.empty(1024, np.int64)
     return _astar(
         rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
-        max_expansions,
+        max_expansions, keys, parents,
     )  # fmt: skip
 
 
@@ -166,8 +173,8 @@ def _slot(keys, key, mask):
 @numba.njit(cache=True)
 def _grown(keys, parents):
     """The state table at twice its size, every entry moved over."""
-    bigger = np.full(2 * keys.size, _EMPTY, dtype=np.int64)
-    moved = np.empty(2 * keys.size, dtype=np.int64)
+    bigger = np.full(2 * keys.size, _EMPTY, dtype=keys.dtype)
+    moved = np.empty(2 * keys.size, dtype=keys.dtype)
     mask = bigger.size - 1
     for i in range(keys.size):
         if keys[i] != _EMPTY:
@@ -224,11 +231,12 @@ def _pop(levels, sizes, level):
 @numba.njit(cache=True)
 def _astar(
     rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
-    max_expansions,
+    max_expansions, keys, parents,
 ):  # fmt: skip
     """The A* loop of ``reservations._astar``. A state ``(p, t)`` is the key
     ``p * span + t - t_start``; its parent's key is kept in an open-addressing table
-    (``keys``, ``parents``; -1: the start), grown before it is half full.
+    (``keys``, ``parents``: empty, int32 or int64; -1: the start), grown before it is half
+    full.
 
     The states pop in the order of the specification's heap of ``(f, h, t, p)``: with a
     consistent heuristic (breadth-first distances change by one a move at most) a pushed
@@ -237,14 +245,12 @@ def _astar(
     ``h * n + p``, since ``t = t_start + f - h`` is then fixed."""
     n = ok.size
     span = t_cap - t_start + 1
-    keys = np.full(1024, _EMPTY, dtype=np.int64)
-    parents = np.empty(1024, dtype=np.int64)
     mask = keys.size - 1
     i = _slot(keys, start * span, mask)
     keys[i], parents[i] = start * span, -1
     count = 1
     f_now = np.int64(h[start])
-    levels = np.empty((3, 256), dtype=np.int64)  # the heap of f at row f % 3
+    levels = np.empty((3, 4096), dtype=np.int64)  # the heap of f at row f % 3
     sizes = np.zeros(3, dtype=np.int64)
     levels = _push(levels, sizes, f_now % 3, f_now * n + start)
     expansions = 0

@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 import multicrane
 from multicrane.episodes.random_actions import random_legal_action
 from multicrane.sim.grid_search import breadth_first, fits_everywhere
+from multicrane.tasks import search_kernels
 from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
 from multicrane.tasks.reservations import (
     INF,
@@ -89,6 +90,26 @@ def _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, li
     return a
 
 
+def _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, ok, h, slack):
+    """The A* loop with its state table in int32 (what every grid here gets) and in int64
+    (grids whose states need 64-bit keys): the same answer."""
+    rel = np.asarray(rel, dtype=np.int64)
+    free_from = goal_free_from_kernel(arrays.rows, arrays.n, comp, rel, goal, t_start, INF)
+    if h[start] < 0 or free_from < 0 or start == goal:
+        return
+    stop = np.zeros(len(ok), dtype=np.bool_)
+    stop[list(stops)] = True
+    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, ok.size)
+    answers = []
+    for width in (np.int32, np.int64):
+        answers.append(search_kernels._astar(
+            arrays.rows, head, nxt, rel, start, t_start, goal, stop, ok,
+            np.asarray(h, dtype=np.int32), np.array(DELTAS), t_start + h[start] + slack,
+            free_from, 2000, np.full(1024, -1, width), np.empty(1024, width),
+        ))  # fmt: skip
+    assert answers[0][1] == answers[1][1] and np.array_equal(answers[0][0], answers[1][0])
+
+
 @settings(max_examples=150, deadline=None)
 @given(grids(), st.data())
 def test_breadth_first_kernel_is_the_grid_search(grid, data):
@@ -115,6 +136,7 @@ def test_compiled_search_is_the_specification(grid, both, data):
     h = breadth_first(ok, [goal], DELTAS)
     slack, lifted = data.draw(st.integers(0, 12)), data.draw(st.booleans())
     _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, DELTAS)
+    _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, ok, h, slack)
     cells = [start + r for r in rel]
     lo = data.draw(st.integers(0, 25))
     hi = lo + data.draw(st.integers(0, 5))
