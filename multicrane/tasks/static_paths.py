@@ -60,8 +60,13 @@ class StaticPaths:
                 if zone >= 0:
                     fit &= fits_everywhere(self.sim.site.reach[zone], rel)
                 self._fit[(rel, zone)] = fit
-            dist = breadth_first_kernel(fit, goal, self._deltas)
-            if dist.max() <= np.iinfo(np.int16).max:  # a quarter of a list's memory
-                dist = dist.astype(np.int16)
+            dist = compact(breadth_first_kernel(fit, goal, self._deltas))
             self._dist[key] = dist
         return dist
+
+
+def compact(dist: np.ndarray) -> np.ndarray:
+    """Distances (int32, -1: none) as int16 when every one fits: a site keeps many fields."""
+    if dist.size and dist.max() <= np.iinfo(np.int16).max:
+        return dist.astype(np.int16)
+    return dist

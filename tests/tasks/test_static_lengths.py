@@ -11,7 +11,7 @@ import multicrane
 from multicrane.scenario.named_sets import members
 from multicrane.sim.shortest_paths import UNREACHABLE
 from multicrane.tasks.reservations import GoalPoses, goal_position
-from multicrane.tasks.static_paths import StaticPaths
+from multicrane.tasks.static_paths import StaticPaths, compact
 
 
 def _reference(env) -> np.ndarray:
@@ -86,3 +86,11 @@ def test_the_cached_goal_poses_are_goal_position(scenario):
                 found += expected is not None
                 missing += expected is None
     assert found and missing  # both answers were checked
+
+
+@pytest.mark.parametrize(("longest", "dtype"), [(7, np.int16), (32767, np.int16),
+                                                (32768, np.int32), (10**6, np.int32)])  # fmt: skip
+def test_distance_fields_are_kept_small_only_when_every_distance_fits(longest, dtype):
+    dist = np.array([-1, 0, 3, longest], dtype=np.int32)
+    kept = compact(dist)
+    assert kept.dtype == dtype and kept.tolist() == dist.tolist()
