@@ -136,6 +136,17 @@ def cloned_set_run(scenario: str, n_cranes: int, **options):
                        **options)  # fmt: skip
 
 
+def same(a, b) -> bool:
+    """Equal, deeply: arrays by value, lists, tuples and dicts element by element."""
+    if isinstance(a, np.ndarray):
+        return np.array_equal(a, b)
+    if isinstance(a, (list, tuple)):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+    return a == b
+
+
 def load_tool(name: str):
     """The module of ``tools/NAME.py`` (developer programs are scripts, not a package)."""
     import importlib.util

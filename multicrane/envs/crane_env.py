@@ -269,7 +269,8 @@ class MultiCraneEnv(ParallelEnv):
         (nor the masks and state, until asked for) and returns ``(terminated, truncated)``."""
         _, _, _, complete, truncated = self._play(actions, "advance")
         self._observed = False
-        self.agents = [] if complete or truncated else self.agents
+        if complete or truncated:
+            self.agents = []
         return complete, truncated
 
     def _play(self, actions: dict[str, Any], what: str):

@@ -1,11 +1,12 @@
 """Copies of a task-level environment for rollouts: planners play them to the end to judge a plan.
 
 ``rollout_copy(env)`` deep-copies an unwrapped ``MultiCraneEnv`` but shares what no episode
-changes (the scenario, the site, the task list and the static path lengths, a cache of the
-site's) and starts the episode's trace afresh: a rollout is never recorded, and the trace,
-which grows with the episode, was half of a copy's cost. ``has_events(env)``: the site has
-events; a copy then holds the episode's whole event schedule, so a rollout would see late
-components and breakdowns before they happen, and planners that play copies refuse it.
+changes (the scenario, the site, the task list, and the static path lengths and goal poses,
+caches of the site's) and starts the episode's trace afresh: a rollout is never recorded,
+and the trace, which grows with the episode, was half of a copy's cost. ``has_events(env)``:
+the site has events; a copy then holds the episode's whole event schedule, so a rollout
+would see late components and breakdowns before they happen, and planners that play copies
+refuse it.
 ``collector_paused(pause)``: a block in which Python's cyclic garbage collector does not run
 (rollouts make many objects, and a full collection scans every object of the process,
 trained models included; the copies hold almost no reference cycles, so reference counting
@@ -29,7 +30,7 @@ def rollout_copy(env):
     mode = env.mode
     book = mode.task_book()
     shared = (env.scenario, env.sim.scenario, env.sim.site, env.observation_layout,
-              book.tasks, book.static)  # fmt: skip
+              book.tasks, book.static, book.carrier.goals)  # fmt: skip
     memo = {id(x): x for x in shared}
     for trace in (mode.trace, mode.trace_events, mode.trace_rewards, mode.decisions):
         memo[id(trace)] = []

@@ -121,7 +121,7 @@ class TaskBook:
         self.patience = int(patience)
         self.tasks = TaskList(sim)
         self.carrier = EventCarrier(sim, slack, max_expansions)  # replans on site events
-        self.static = StaticPaths(sim)
+        self.static = StaticPaths(sim, self.carrier.goals)
         self.n_actions = 1 + len(self.tasks)
 
     def reset(self) -> None:

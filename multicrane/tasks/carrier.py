@@ -67,7 +67,7 @@ class Carrier:
         self.stats = dict.fromkeys(STAT_NAMES, 0)
         self._move_of = {d: m for m, d in enumerate(sim.site.move_delta)}
         self._deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
-        self._goals = GoalPoses(sim.site)  # the goal pose per (shape, target)
+        self.goals = GoalPoses(sim.site)  # the goal pose per (shape, target)
         self._pickups: list | None = None  # the pick-up poses ``_distances`` belong to
         self._distances = np.zeros((0, 0), dtype=np.int64)
         self.reset()
@@ -132,7 +132,7 @@ class Carrier:
                     continue
                 rel = tuple(j - pick[0] for j in pick)
                 for t in targets:
-                    goal = self._goals[rel, t]
+                    goal = self.goals[rel, t]
                     if goal is not None:
                         dist[comp, t] = manhattan(site.cell(pick[0]), site.cell(goal))
             self._pickups, self._distances = pickup, dist
@@ -199,7 +199,7 @@ class Carrier:
             return False
         pick = sim.state.pickup[comp]
         rel = tuple(j - pick[0] for j in pick)
-        goal = self._goals[rel, target]
+        goal = self.goals[rel, target]
         if goal is None:
             return False
         res = self._table(T)
@@ -298,7 +298,7 @@ class Carrier:
     def _stops(self, comp: int, rel: tuple[int, ...], target: int) -> set[int]:
         """Poses of other compatible targets that are or may become ready during a path."""
         planned = {p.target for c, p in self.plans.items() if c != comp}
-        return stop_poses(self.sim, comp, rel, target, planned, self._goals)
+        return stop_poses(self.sim, comp, rel, target, planned, self.goals)
 
     def taken_targets(self) -> set[int]:
         """The targets of every plan."""
@@ -337,7 +337,7 @@ class Carrier:
         for t in sim.ready_targets(comp):
             if t in taken or not sim.site.reaches(crane, sim.site.target_cells[t]):
                 continue
-            goal = self._goals[rel, t]
+            goal = self.goals[rel, t]
             if goal is not None:
                 options.append((manhattan(here, sim.site.cell(goal)), t, goal))
         options.sort()

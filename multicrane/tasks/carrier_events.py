@@ -155,7 +155,7 @@ class EventCarrier(Carrier):
         crane = int(sim.state.holder[comp])
         taken = self.taken_targets()
         for t in sim.ready_targets(comp):
-            if t in taken or self._goals[rel, t] != start:
+            if t in taken or self.goals[rel, t] != start:
                 continue
             # A breakdown stopped it on this target's pose before the target was ready: it
             # arrives only by moving in, so it steps out and back.

@@ -21,12 +21,12 @@ class StaticPaths:
     """Shortest path lengths through the static site (walls and obstacles only), per
     (component shape, goal pose, crane zone); cached for the life of the site."""
 
-    def __init__(self, sim: Simulator):
+    def __init__(self, sim: Simulator, goals: GoalPoses | None = None):
         self.sim = sim
         self.free = sim.site.static == FREE
         self._fit: dict[tuple, np.ndarray] = {}
         self._dist: dict[tuple, np.ndarray] = {}  # int16 where every distance fits
-        self._goal = GoalPoses(sim.site)
+        self._goal = GoalPoses(sim.site) if goals is None else goals  # the carrier's, shared
         self._deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
 
     def length(self, pickup: list[int], target: int, zone: int) -> int:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import same
 
 import multicrane
 import policies
@@ -36,16 +37,6 @@ def _play(env, seed, advance_from, advance_to):
     return rounds, last, seen
 
 
-def _same(x, y) -> bool:
-    if isinstance(x, dict):
-        return x.keys() == y.keys() and all(_same(x[k], y[k]) for k in x)
-    if isinstance(x, list | tuple):
-        return len(x) == len(y) and all(_same(a, b) for a, b in zip(x, y, strict=True))
-    if isinstance(x, np.ndarray):
-        return np.array_equal(x, y)
-    return x == y
-
-
 @pytest.mark.parametrize(("scenario", "decisions"), [("hall-4c", "task"),
                                                      ("frame2-3c", "task"),
                                                      ("e3s2", "motion")])  # fmt: skip
@@ -56,7 +47,7 @@ def test_advance_moves_the_episode_as_step_does(scenario, decisions):
     assert rounds > 12
     again, mixed_last, seen = _play(mixed, 4, 3, rounds - 3)  # the last 3 rounds step
     assert again == rounds and seen
-    assert _same(last, mixed_last)  # the final step's outputs, infos included
+    assert same(last, mixed_last)  # the final step's outputs, infos included
     assert mixed.unwrapped.total_reward == plain.unwrapped.total_reward
     assert mixed.unwrapped.sim.state.step_count == plain.unwrapped.sim.state.step_count
 

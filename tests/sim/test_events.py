@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import SCENARIOS, random_masked_actions, reach_skip
+from conftest import SCENARIOS, random_masked_actions, reach_skip, same
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_rules import C1, C2, micro_site
@@ -236,16 +236,6 @@ def play(env: MultiCraneEnv, seed: int, steps: int, check=None) -> list:
         first = obs[env.possible_agents[0]]
         trace.append((first["observation"].copy(), rewards, [e for e in env.last_site_events]))
     return trace
-
-
-def same(a, b) -> bool:
-    if isinstance(a, np.ndarray):
-        return np.array_equal(a, b)
-    if isinstance(a, (list, tuple)):
-        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b, strict=True))
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
-    return a == b
 
 
 @pytest.mark.parametrize("decisions", ["motion", "task"])
