@@ -136,6 +136,8 @@ class TaskBook:
         self._probe: dict[int, int] = {}  # crane -> task started by task_feasible this round
         self._probe_t: int | None = None
         self._infeasible: set[tuple[int, int]] = set()
+        self._open_kept: tuple | None = None  # (key, claimable, open pairs): _open_pairs
+        self._any_kept: tuple | None = None  # (open pairs, idle cranes, answer): any_open
         self.static_len = self._static_lengths()
         self.static_ok = self.static_len != UNREACHABLE
 
@@ -179,9 +181,20 @@ class TaskBook:
         return comp_ok, target_ok
 
     def _open_pairs(self) -> np.ndarray:
-        """(P,) bool: the task's component and target are open (``_open``)."""
+        """(P,) bool, read-only: the task's component and target are open (``_open``); kept
+        while the claimable components, the targets' readiness and the tasks stay as they
+        were (a decision round asks several times, its simulated steps once each)."""
+        sim = self.sim
+        claimable = sim.claimable_components()
+        key = (sim.targets_version, tuple(self.task))
+        kept = self._open_kept
+        if kept is not None and kept[0] == key and kept[1] == claimable:
+            return kept[2]
         comp_ok, target_ok = self._open()
-        return comp_ok[self.tasks.comp] & target_ok[self.tasks.target]
+        ok = comp_ok[self.tasks.comp] & target_ok[self.tasks.target]
+        ok.flags.writeable = False
+        self._open_kept = (key, list(claimable), ok)
+        return ok
 
     def allowed(self) -> np.ndarray:
         """(N, P) bool: the tasks each crane could take now were it idle."""
@@ -222,7 +235,12 @@ class TaskBook:
             idle = [k for k in idle if self.sim.crane_up(k)]
         if not idle:
             return False
-        return bool((self.static_ok[idle] & self._open_pairs()).any())
+        open_, idle = self._open_pairs(), tuple(idle)
+        kept = self._any_kept
+        if kept is None or kept[0] is not open_ or kept[1] != idle:
+            answer = bool((self.static_ok[list(idle)] & open_).any())
+            kept = self._any_kept = (open_, idle, answer)
+        return kept[2]
 
     def time_left(self, crane: int) -> int:
         """Estimated simulated steps until the crane is idle (0 when idle)."""

@@ -166,7 +166,10 @@ class Carrier:
         sim = self.sim
         diverged = self._sync(T) or self._force_replan
         self._force_replan = False
-        transit = np.flatnonzero(sim.state.status == _IN_TRANSIT).tolist()
+        status = sim.views.status
+        # Every component in transit is held (tests/sim/test_invariants.py): the cranes'
+        # loads, in index order.
+        transit = sorted(c for c in sim.state.held if c != NOBODY and status[c] == _IN_TRANSIT)
         unplanned = [c for c in transit if c not in self.plans]
         if diverged or unplanned:
             res = self._table(T)
@@ -257,7 +260,7 @@ class Carrier:
         comp = st.held[crane]
         if comp == NOBODY:
             return CLAIM_BASE + self._claims[crane] if crane in self._claims else WAIT
-        if st.status[comp] == _ARRIVED:
+        if self.sim.views.status[comp] == _ARRIVED:
             return ASSEMBLE
         plan = self.plans.get(comp)
         if plan is None:
@@ -270,9 +273,10 @@ class Carrier:
     def _sync(self, T: int) -> bool:
         """Drop finished plans; True when some component is not where its plan says."""
         sim = self.sim
+        status = sim.views.status
         diverged = False
         for comp, plan in list(self.plans.items()):
-            s = sim.state.status[comp]
+            s = status[comp]
             if s == _INITIAL:
                 if plan.claim and plan.t0 > T:
                     continue  # claimed in the coming step

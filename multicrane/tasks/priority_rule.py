@@ -14,6 +14,7 @@ when the carrier's space-time search succeeds, at most ``max_searches`` searches
 from __future__ import annotations
 
 import numbers
+import weakref
 from collections.abc import Callable
 
 import numpy as np
@@ -52,9 +53,7 @@ def ready_pairs(carrier: Carrier, candidates, taken: set[int]) -> tuple[np.ndarr
     pose); ``rows``: the component's place in ``candidates``."""
     comps = np.asarray(candidates, dtype=np.int64)
     dist = carrier.pair_distances()[comps]
-    open_ = np.asarray(carrier.sim.target_ready, dtype=bool)
-    open_[list(taken)] = False
-    rows, targets = np.nonzero((dist >= 0) & open_)
+    rows, targets = np.nonzero((dist >= 0) & _open_targets(carrier.sim, taken))
     return rows, comps[rows], targets, dist[rows, targets]
 
 
@@ -67,10 +66,37 @@ def pair_tuples(order, distance, comp, target) -> list[tuple[int, int, int]]:
 def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_rank: dict):
     """Ready pairs (``ready_pairs``), best first, as ``(distance, comp, target)`` tuples:
     ranked by (list rank, distance, target), (distance, component, target) or (longest
-    chain, list rank, distance, target)."""
+    chain, list rank, distance, target). Each key orders every pair strictly, so the
+    round's pairs are the episode's ranking (``_episode_ranking``) with the others left out."""
     if not candidates:
         return []
-    _, comp, targets, d = ready_pairs(carrier, candidates, taken)
+    sim = carrier.sim
+    comp, targets, d = _episode_ranking(carrier, rank, list_rank)
+    chosen = np.zeros(sim.site.n_components, dtype=bool)
+    chosen[candidates] = True
+    keep = np.flatnonzero(chosen[comp] & _open_targets(sim, taken)[targets])
+    return pair_tuples(keep, d, comp, targets)
+
+
+# id of a distance table -> rank -> (the list ranks it was built with, (comp, target,
+# distance)); an entry leaves with its table
+_RANKINGS: dict[int, dict[str, tuple[dict, tuple[np.ndarray, ...]]]] = {}
+
+
+def _episode_ranking(carrier: Carrier, rank: str, list_rank: dict) -> tuple[np.ndarray, ...]:
+    """Every pair a pose of its shape covers, best first, as arrays ``(comp, target,
+    distance)``; built once per episode's pick-up poses (``Carrier.pair_distances``), rank
+    and list order."""
+    dist = carrier.pair_distances()
+    per_rank = _RANKINGS.get(id(dist))
+    if per_rank is None:
+        per_rank = _RANKINGS[id(dist)] = {}
+        weakref.finalize(dist, _RANKINGS.pop, id(dist), None)
+    kept = per_rank.get(rank)
+    if kept is not None and kept[0] == list_rank:
+        return kept[1]
+    comp, targets = np.nonzero(dist >= 0)
+    d = dist[comp, targets]
     if rank in ("list", "chain"):
         keys = [targets, d, np.array([list_rank[c] for c in comp.tolist()], dtype=np.int64)]
         if rank == "chain":
@@ -78,7 +104,16 @@ def ranked_pairs(carrier: Carrier, candidates, taken: set[int], rank: str, list_
         order = np.lexsort(keys)
     else:
         order = np.lexsort((targets, comp, d))
-    return pair_tuples(order, d, comp, targets)
+    ranking = (comp[order], targets[order], d[order])
+    per_rank[rank] = (dict(list_rank), ranking)
+    return ranking
+
+
+def _open_targets(sim: Simulator, taken: set[int]) -> np.ndarray:
+    """(targets,) bool: ready and not in ``taken``."""
+    open_ = np.asarray(sim.target_ready, dtype=bool)
+    open_[list(taken)] = False
+    return open_
 
 
 def check_rank(rank: str) -> str:

@@ -20,22 +20,36 @@ CELL, FROM, TO, OWNER = range(4)  # the columns of a reservation row
 @numba.njit(cache=True)
 def breadth_first_kernel(ok, goal, deltas):
     """Moves from every position to ``goal`` over positions in ``ok`` (-1 where none): the
-    distances of ``multicrane.sim.grid_search.breadth_first(ok, [goal], deltas)``."""
+    distances of ``multicrane.sim.grid_search.breadth_first(ok, [goal], deltas)``, for the
+    grid's six moves (``deltas``; ValueError otherwise)."""
+    if deltas.size != 6:
+        raise ValueError("breadth_first_kernel takes the six moves of the grid")
+    return _breadth_first_six(ok, goal, deltas)
+
+
+@numba.njit(cache=True)
+def _breadth_first_six(ok, goal, deltas):
+    """``breadth_first_kernel`` with its loop over the six moves unrolled."""
     n = ok.size
     dist = np.full(n, -1, dtype=np.int32)
     if not ok[goal]:
         return dist
+    d0, d1, d2, d3, d4, d5 = deltas[0], deltas[1], deltas[2], deltas[3], deltas[4], deltas[5]
+    open_ = ok.copy()  # in ``ok`` and not reached yet
     queue = np.empty(n, dtype=np.int32)  # positions (a grid has fewer than 2**31)
     queue[0] = goal
     dist[goal] = 0
+    open_[goal] = False
     head, tail = 0, 1
     while head < tail:
         p = queue[head]
         head += 1
-        for d in deltas:
+        step = dist[p] + 1
+        for d in (d0, d1, d2, d3, d4, d5):
             q = p + d
-            if 0 <= q < n and ok[q] and dist[q] < 0:
-                dist[q] = dist[p] + 1
+            if 0 <= q < n and open_[q]:
+                open_[q] = False
+                dist[q] = step
                 queue[tail] = q
                 tail += 1
     return dist

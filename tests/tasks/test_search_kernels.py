@@ -120,6 +120,12 @@ def test_breadth_first_kernel_is_the_grid_search(grid, data):
     assert np.array_equal(breadth_first_kernel(ok, goal, np.array(DELTAS)), expected)
 
 
+def test_breadth_first_kernel_refuses_other_than_six_moves():
+    ok = np.ones(SIDE**3, dtype=bool)
+    with pytest.raises(ValueError, match="six moves"):
+        breadth_first_kernel(ok, 0, np.array(DELTAS[:4]))
+
+
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(grids(), tables(), st.data())
 def test_compiled_search_is_the_specification(grid, both, data):
