@@ -286,7 +286,8 @@ class TaskBook:
         T = sim.state.step_count
         carrier.begin(T)  # the round's own work (replans after events), kept and counted
         if self._probe_t == T and self._probe:
-            scratch = copy.deepcopy(self, {id(x): x for x in (sim, self.tasks, self.static)})
+            shared = (sim, self.tasks, self.static, carrier.memo)  # the memo: exact answers
+            scratch = copy.deepcopy(self, {id(x): x for x in shared if x is not None})
             for crane in scratch._probe:
                 scratch.carrier.cancel(crane)
             scratch._probe_t, scratch.carrier.round_searches = None, 0  # (try_start counts)

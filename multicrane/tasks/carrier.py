@@ -36,14 +36,8 @@ import numpy as np
 from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, WAIT, Status
 from multicrane.sim.simulator import NOBODY, Simulator
 from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
-from multicrane.tasks.reservations import (
-    INF,
-    GoalPoses,
-    Plan,
-    manhattan,
-    shape_of,
-    stop_poses,
-)
+from multicrane.tasks.reservations import INF, GoalPoses, Plan, manhattan, shape_of, stop_poses
+from multicrane.tasks.search_memo import SearchMemo, remembered
 from multicrane.tasks.shape_cache import ShapeCache
 
 _INITIAL, _IN_TRANSIT, _ARRIVED, _ASSEMBLED = (int(s) for s in Status)
@@ -85,18 +79,22 @@ class Carrier:
         self._claims: dict[int, int] = {}  # crane -> component claimed in step T + 1
         self._cached: tuple[int, list[int]] | None = None
         self.round_searches = 0
+        self.memo: SearchMemo | None = None  # kept search answers (``share_searches``)
+
+    def share_searches(self) -> SearchMemo | None:
+        """The episode's kept search answers, for copies of this site to share
+        (``multicrane.tasks.search_memo``; made on first asking; None on sites with events)."""
+        if self.memo is None and self.sim.schedule is None:
+            self.memo = SearchMemo(self.sim.state.pickup)
+        return self.memo
 
     # -- queries -------------------------------------------------------------------------------
 
     def busy(self, crane: int) -> bool:
         """The crane holds a component, assembles, or claims one in the coming step."""
         st = self.sim.state
-        return (
-            st.held[crane] != NOBODY
-            or bool(st.assembling[crane])
-            or bool(st.pass_over[crane])
-            or crane in self._claims
-        )
+        return (st.held[crane] != NOBODY or bool(st.assembling[crane])
+                or bool(st.pass_over[crane]) or crane in self._claims)  # fmt: skip
 
     def time_left(self, crane: int) -> int:
         """Estimated steps until the crane is idle: the path left plus the assembly."""
@@ -119,23 +117,10 @@ class Carrier:
         return max(plan.arrival - T, 1) + steps
 
     def pair_distances(self) -> np.ndarray:
-        """(components, targets) int64: the Manhattan distance from each component's pick-up
-        pose to its pose on each compatible target, -1 where no pose of its shape covers the
-        target (or the target is not compatible); computed once per episode's pick-up poses."""
+        """``GoalPoses.pair_distances`` of the episode's pick-up poses, computed once."""
         pickup = self.sim.state.pickup
         if pickup is not self._pickups:
-            site = self.sim.site
-            dist = np.full((site.n_components, len(site.target_cells)), -1, dtype=np.int64)
-            for comp, targets in enumerate(site.compatible):
-                pick = pickup[comp]
-                if not pick:
-                    continue
-                rel = tuple(j - pick[0] for j in pick)
-                for t in targets:
-                    goal = self.goals[rel, t]
-                    if goal is not None:
-                        dist[comp, t] = manhattan(site.cell(pick[0]), site.cell(goal))
-            self._pickups, self._distances = pickup, dist
+            self._pickups, self._distances = pickup, self.goals.pair_distances(pickup)
         return self._distances
 
     def may_start(self, T: int) -> bool:
@@ -314,16 +299,22 @@ class Carrier:
         self, comp: int, rel: tuple[int, ...], start: int, t_start: int, goal: int,
         stops: set[int], res: ReservationArrays, crane: int, claim: bool = True,
     ) -> list[int] | None:  # fmt: skip
-        """Space-time A* (counted in ``stats``): positions from ``t_start`` to the arrival."""
+        """Space-time A* (counted in ``stats``; answered by ``memo`` when it has the answer):
+        positions from ``t_start`` to the arrival."""
         self.stats["searches"] += 1
         sim = self.sim
         zone = crane if sim.site.reach is not None else -1
-        ok = self._shapes.base_ok(sim, rel, zone)
-        h = self._shapes.heuristic(sim, rel, goal, zone)
-        path, expansions = compiled_search(
-            res, comp, rel, start, t_start, goal, stops, ok, h,
-            self._deltas, self.slack, self.max_expansions, lifted_onto_goal_arrives=claim,
-        )  # fmt: skip
+
+        def search():
+            ok = self._shapes.base_ok(sim, rel, zone)
+            h = self._shapes.heuristic(sim, rel, goal, zone)
+            return compiled_search(
+                res, comp, rel, start, t_start, goal, stops, ok, h,
+                self._deltas, self.slack, self.max_expansions, lifted_onto_goal_arrives=claim,
+            )  # fmt: skip
+
+        scalars = (comp, start, t_start, goal, zone, claim, self.slack, self.max_expansions)
+        path, expansions = remembered(self.memo, search, sim.state, res, rel, stops, scalars)
         self.stats["expansions"] += expansions
         if path is None:
             self.stats["failed"] += 1

@@ -41,6 +41,8 @@ from __future__ import annotations
 import heapq
 from dataclasses import dataclass
 
+import numpy as np
+
 from multicrane.core.codes import Status
 from multicrane.sim.simulator import NOBODY, Simulator
 
@@ -177,6 +179,23 @@ class GoalPoses(dict):
         rel, target = key
         goal = self[key] = goal_position(rel, self.site.target_cells[target])
         return goal
+
+    def pair_distances(self, pickup: list[list[int]]) -> np.ndarray:
+        """(components, targets) int64: the Manhattan distance from each component's pick-up
+        pose (``pickup``, the state's) to its pose on each compatible target, -1 where no pose
+        of its shape covers the target (or the target is not compatible)."""
+        site = self.site
+        dist = np.full((site.n_components, len(site.target_cells)), -1, dtype=np.int64)
+        for comp, targets in enumerate(site.compatible):
+            pick = pickup[comp]
+            if not pick:
+                continue
+            rel = tuple(j - pick[0] for j in pick)
+            for t in targets:
+                goal = self[rel, t]
+                if goal is not None:
+                    dist[comp, t] = manhattan(site.cell(pick[0]), site.cell(goal))
+        return dist
 
 
 def stop_poses(
