@@ -157,6 +157,11 @@ def space_time_kernel(
     if free_from >= t_cap:  # held up to the time cap: no arrival in time (specification)
         return np.empty(0, dtype=np.int64), 0
     head, nxt = _cell_lists(rows, n_rows, comp, t_start, ok.size)
+    below = free_from - t_start  # no arrival before: every state of lower f comes first
+    if below > h0 and _states_below(
+        rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, below, max_expansions,
+    ) > max_expansions:  # fmt: skip
+        return np.empty(0, dtype=np.int64), max_expansions + 1  # the A* stops at its cap
     if ok.size * (t_cap - t_start + 1) < 2**31:  # every state key fits 32 bits: half the table
         keys, parents = np.full(1024, _EMPTY, np.int32), np.empty(1024, np.int32)
         return _astar(
@@ -168,6 +173,54 @@ def space_time_kernel(
         rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
         max_expansions, keys, parents,
     )  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _states_below(rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, below, limit):
+    """How many states ``(p, t)`` with ``f = t - t_start + h[p] < below`` the A* reaches,
+    counted up to ``limit + 1``: time layer by time layer, by the A*'s own moves and checks.
+
+    With a consistent heuristic ``f`` never falls along a path, so these are the states
+    reachable through states of lower ``f`` only, and the A* expands every one of them before
+    any state of ``f >= below``. When ``below`` is at most the goal's ``f`` (the goal is not
+    free before ``t_start + below``), the A* expands them all before it finds the goal: more
+    than ``limit`` of them and it stops at its cap without a path."""
+    n = ok.size
+    layer_of = np.full(n, -1, dtype=np.int32)  # the last layer a position was put in
+    layer = np.empty(n, dtype=np.int32)
+    after = np.empty(n, dtype=np.int32)
+    layer[0] = start
+    size, count, g = 1, 0, 0
+    while size:
+        count += size
+        if count > limit:
+            return count
+        t = t_start + g
+        t1, g1 = t + 1, g + 1
+        grown = 0
+        for k in range(size):
+            p = layer[k]
+            if _held(rows, head, nxt, rel, p, t1, t1):
+                continue  # the A* expands nothing from here
+            if p != goal and g1 + h[p] < below and layer_of[p] != g1:  # wait
+                layer_of[p] = g1
+                after[grown] = p
+                grown += 1
+            for d in deltas:
+                q = p + d
+                if q < 0 or q >= n or not ok[q] or stop[q] or q == goal:
+                    continue
+                hq = h[q]
+                if hq < 0 or g1 + hq >= below or layer_of[q] == g1:
+                    continue
+                if _held(rows, head, nxt, rel, q, t, t1):
+                    continue
+                layer_of[q] = g1
+                after[grown] = q
+                grown += 1
+        layer, after = after, layer
+        size, g = grown, g1
+    return count
 
 
 _EMPTY = -1  # a free slot of the state table (state keys are never negative)

@@ -75,15 +75,16 @@ def tables(draw):
     return spec, arrays
 
 
-def _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, deltas):
+def _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, deltas,
+          cap=2000):  # fmt: skip
     """Both searches' answers (the specification on bytes and a memoryview, as it was
-    written for), asserted equal."""
+    written for), asserted equal; ``cap``: the expansions each may make."""
     a = space_time_search(
         spec, comp, rel, start, t_start, goal, stops, bytes(ok), memoryview(h), list(deltas),
-        slack, 2000, lifted_onto_goal_arrives=lifted,
+        slack, cap, lifted_onto_goal_arrives=lifted,
     )  # fmt: skip
     b = compiled_search(
-        arrays, comp, rel, start, t_start, goal, stops, ok, h, np.array(deltas), slack, 2000,
+        arrays, comp, rel, start, t_start, goal, stops, ok, h, np.array(deltas), slack, cap,
         lifted_onto_goal_arrives=lifted,
     )  # fmt: skip
     assert a == b
@@ -141,7 +142,10 @@ def test_compiled_search_is_the_specification(grid, both, data):
     comp, t_start = data.draw(st.integers(0, 4)), data.draw(st.integers(0, 12))
     h = breadth_first(ok, [goal], DELTAS)
     slack, lifted = data.draw(st.integers(0, 12)), data.draw(st.booleans())
-    _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, DELTAS)
+    cap = data.draw(st.sampled_from([2000, 0, 1, 3, 10, 30, 100, 300]))
+    _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, DELTAS,
+          cap)  # fmt: skip
+    _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack)
     _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, ok, h, slack)
     cells = [start + r for r in rel]
     lo = data.draw(st.integers(0, 25))
@@ -150,6 +154,55 @@ def test_compiled_search_is_the_specification(grid, both, data):
     free_from = goal_free_from(spec, comp, rel, goal, t_start)
     kernel = goal_free_from_kernel(arrays.rows, arrays.n, comp, np.array(rel), goal, t_start, INF)
     assert (free_from if free_from is not None else -1) == kernel
+
+
+def _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack):
+    """The count of states below the goal's free time (``_states_below``, which lets a
+    search over its cap fail at once) never exceeds what the specification's A* expands
+    (without a cap) before it finds the goal or runs out of states."""
+    rel_a = np.asarray(rel, dtype=np.int64)
+    free_from = goal_free_from_kernel(arrays.rows, arrays.n, comp, rel_a, goal, t_start, INF)
+    if h[start] < 0 or free_from < 0 or start == goal or not ok[goal]:
+        return
+    stop = np.zeros(len(ok), dtype=np.bool_)
+    stop[list(stops)] = True
+    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, ok.size)
+    below = min(free_from, t_start + h[start] + slack) - t_start
+    count = search_kernels._states_below(
+        arrays.rows, head, nxt, rel_a, start, t_start, goal, stop, ok,
+        np.asarray(h, dtype=np.int32), np.array(DELTAS), below, 10**9,
+    )  # fmt: skip
+    _, expanded = space_time_search(
+        spec, comp, rel, start, t_start, goal, stops, bytes(ok), memoryview(h), DELTAS, slack,
+        10**9,
+    )  # fmt: skip
+    if free_from < t_start + h[start] + slack:  # else the search fails before expanding
+        assert count <= expanded
+
+
+def test_a_late_goal_over_the_cap_fails_as_the_specification():
+    """The goal is held until step 10 (start 4 moves away, slack 12): every state of f below
+    11 comes before the goal. Under a cap below their count both searches fail with cap + 1
+    expansions (the kernel without expanding them); above it both find the path."""
+    free = np.array([_inside(p) for p in range(SIDE**3)])
+    ok = fits_everywhere(free, (0,))
+    start, goal = (SIDE + 1) * SIDE + 1, (SIDE + 1) * SIDE + 5  # (1, 1, 1) and (1, 1, 5)
+    h = breadth_first(ok, [goal], DELTAS)
+    spec, arrays = ReservationTable(), ReservationArrays()
+    for table in (spec, arrays):
+        table.hold([goal], 0, 10, 9)
+    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, 0, 0, ok.size)
+    count = search_kernels._states_below(
+        arrays.rows, head, nxt, np.zeros(1, dtype=np.int64), start, 0, goal,
+        np.zeros(ok.size, dtype=np.bool_), ok, h, np.array(DELTAS), 11, 10**9,
+    )  # fmt: skip
+    assert count > 100
+    for cap in (0, 1, count // 2, count - 1, count, count + 1, 10 * count):
+        path, expansions = _both(spec, arrays, 0, (0,), start, 0, goal, set(), ok, h, 12, True,
+                                 DELTAS, cap)  # fmt: skip
+        if cap < count:
+            assert path is None and expansions == cap + 1
+    assert path is not None and len(path) - 1 == 12  # free from 11: entered at 12
 
 
 @pytest.mark.parametrize(("held_until", "arrival"), [(None, 4), (10, 12), (11, None),
