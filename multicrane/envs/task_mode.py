@@ -99,10 +99,11 @@ class TaskMode:
         held = sim.state.held  # a list the simulator changes in place
         while True:
             motion = book.motion(task_events)
-            held_before = [c != NOBODY for c in held]
             out, r, terms, paper = physical_step(sim, self.rng, settings.reward, motion)
             elapsed += 1
-            busy += sum([b or c != NOBODY for b, c in zip(held_before, held, strict=True)])
+            # Busy: holding a component after the step, or before it (only an assembly lets
+            # go of one).
+            busy += n - held.count(NOBODY) + len(out.assembled_by)
             total += r
             terms_sum = [a + b for a, b in zip(terms_sum, terms, strict=True)]
             for e in out.events:
