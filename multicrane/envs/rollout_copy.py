@@ -2,10 +2,12 @@
 
 ``rollout_copy(env)`` deep-copies an unwrapped ``MultiCraneEnv`` but shares what no episode
 changes (the scenario, the site, the task list, and the static path lengths and goal poses,
-caches of the site's), shares the episode's kept search answers (``Carrier.share_searches``,
-``multicrane.tasks.search_memo``: the copies ask the same searches again and again), and
-starts the episode's trace afresh: a rollout is never recorded, and the trace, which grows
-with the episode, was half of a copy's cost. ``has_events(env)``:
+caches of the site's, and what the simulator keeps fixed for the episode,
+``Simulator.shared_with_copies``), shares the episode's kept search answers
+(``Carrier.share_searches``, ``multicrane.tasks.search_memo``: the copies ask the same
+searches again and again), and starts the episode's trace afresh: a rollout is never recorded,
+and the trace, which grows with the episode, was half of a copy's cost.
+``has_events(env)``:
 the site has events; a copy then holds the episode's whole event schedule, so a rollout
 would see late components and breakdowns before they happen, and planners that play copies
 refuse it.
@@ -33,7 +35,8 @@ def rollout_copy(env):
     book = mode.task_book()
     carrier = book.carrier
     shared = (env.scenario, env.sim.scenario, env.sim.site, env.observation_layout,
-              book.tasks, book.static, carrier.goals, carrier.share_searches())  # fmt: skip
+              book.tasks, book.static, carrier.goals, carrier.share_searches(),
+              *env.sim.shared_with_copies())  # fmt: skip
     memo = {id(x): x for x in shared if x is not None}
     for trace in (mode.trace, mode.trace_events, mode.trace_rewards, mode.decisions):
         memo[id(trace)] = []

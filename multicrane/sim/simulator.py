@@ -122,6 +122,15 @@ class Simulator(SiteEvents, Legality, AutoPointer):
         self.site_log: list[SiteEvent] = []
         self.targets_version = 0
 
+    def shared_with_copies(self) -> list:
+        """What a copy of this episode (``copy.deepcopy``, as ``multicrane.envs.rollout_copy``
+        makes one) may share with it instead of copying: the start, the fixed pick-up poses
+        and the tables built from them and from the site, and the components' cell lists (a
+        move replaces a component's list, never edits it)."""
+        st = self.state
+        fixed = [self.start, st.pickup, st.prebuilt, self._watch, self._target_users]
+        return fixed + [self._supported_by, *st.cells]
+
     # -- pickling: memoryviews are rebuilt, not pickled -------------------------------------
 
     def __getstate__(self) -> dict:

@@ -67,6 +67,34 @@ def test_a_rollout_copy_starts_its_trace_afresh_and_leaves_the_episode_recordabl
     assert len(env.mode.trace) == episode["steps"]  # one physical joint action per step
 
 
+@pytest.mark.parametrize(("name", "n", "seed"), [("hall-4c", 4, 1), ("precast-house", 3, 0)])
+def test_a_rollout_copy_played_out_leaves_the_episode_as_it_was(name, n, seed):
+    """The copy shares the simulator's fixed parts (the start, the pick-up poses, the cell
+    lists a move replaces) and still changes nothing of the episode: its state, the cell
+    lists' contents, the carrier's plans and the book stay as they were."""
+    env = task_env(name, n)
+    obs, _ = env.reset(seed=seed)
+    planner = TaskPrioritized(env)
+    for _ in range(6):
+        obs, *_ = env.step(planner(obs))
+    sim, book = env.sim, env.mode.task_book()
+    state = sim.snapshot()
+    cells = [list(c) for c in sim.state.cells]
+    plans = {c: (p.t0, list(p.positions)) for c, p in book.carrier.plans.items()}
+    tasks = (list(book.task), list(book.started))
+    copy = rollout_copy(env)
+    assert copy.sim.state.pickup is sim.state.pickup and copy.sim.start is sim.start
+    assert copy.sim.state is not sim.state and copy.sim.state.cells is not sim.state.cells
+    rule = TaskPrioritized(copy)
+    while not any(copy.advance(rule({}))):
+        pass
+    assert copy.sim.state.n_assembled > sim.state.n_assembled
+    assert sim.state.equals(state) and [list(c) for c in sim.state.cells] == cells
+    assert {c: (p.t0, list(p.positions)) for c, p in book.carrier.plans.items()} == plans
+    assert (list(book.task), list(book.started)) == tasks
+    obs, *_ = env.step(planner(obs))  # the episode goes on from where it was
+
+
 def test_lookahead_is_deterministic():
     runs = []
     for _ in range(2):
