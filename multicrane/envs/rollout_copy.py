@@ -7,10 +7,9 @@ caches of the site's, and what the simulator keeps fixed for the episode,
 (``Carrier.share_searches``, ``multicrane.tasks.search_memo``: the copies ask the same
 searches again and again), and starts the episode's trace afresh: a rollout is never recorded,
 and the trace, which grows with the episode, was half of a copy's cost.
-``has_events(env)``:
-the site has events; a copy then holds the episode's whole event schedule, so a rollout
-would see late components and breakdowns before they happen, and planners that play copies
-refuse it.
+``has_events(env)``: the site has events; a copy then holds the episode's whole event
+schedule, so a rollout would see late components and breakdowns before they happen, and
+planners that play copies refuse it.
 ``collector_paused(pause)``: a block in which Python's cyclic garbage collector does not run
 (rollouts make many objects, and a full collection scans every object of the process,
 trained models included; the copies hold almost no reference cycles, so reference counting
