@@ -227,31 +227,36 @@ class Carrier:
             return list(self._cached[1])
         if self._claims:
             self._repair(T, self._table(T), set(self._claims.values()))
-        joint = []
-        for crane in range(self.sim.n_cranes):
-            a = self._action(crane, T)
+        joint = self._planned(T)
+        for crane, a in enumerate(joint):
             if masks is not None and not masks[crane][a]:
                 self.stats["fallbacks"] += 1
                 self._force_replan = True
-                a = WAIT
-            joint.append(a)
+                joint[crane] = WAIT
         self._cached = (T, joint)
         return list(joint)
 
-    def _action(self, crane: int, T: int) -> int:
-        st = self.sim.state
-        if st.assembling[crane] or st.pass_over[crane]:
-            return WAIT
-        comp = st.held[crane]
-        if comp == NOBODY:
-            return CLAIM_BASE + self._claims[crane] if crane in self._claims else WAIT
-        if self.sim.views.status[comp] == _ARRIVED:
-            return ASSEMBLE
-        plan = self.plans.get(comp)
-        if plan is None:
-            return WAIT
-        d = plan.at(T + 1) - plan.at(T)
-        return WAIT if d == 0 else self._move_of[d]
+    def cranes_down(self) -> frozenset[int] | tuple:
+        return ()  # none without site events (``EventCarrier``)
+
+    def _planned(self, T: int) -> list[int]:
+        """Each crane's action by the plans: wait while it assembles, is passed over or is
+        down; its claim; assemble once arrived; its plan's move (wait without a plan)."""
+        st, status, plans, claims = self.sim.state, self.sim.views.status, self.plans, self._claims
+        down, joint = self.cranes_down(), []
+        for crane, comp in enumerate(st.held):
+            if st.assembling[crane] or st.pass_over[crane] or crane in down:
+                a = WAIT
+            elif comp == NOBODY:
+                a = CLAIM_BASE + claims[crane] if crane in claims else WAIT
+            elif status[comp] == _ARRIVED:
+                a = ASSEMBLE
+            else:
+                plan = plans.get(comp)
+                d = 0 if plan is None else plan.move_at(T)
+                a = WAIT if d == 0 else self._move_of[d]
+            joint.append(a)
+        return joint
 
     # -- bookkeeping -------------------------------------------------------------------------
 

@@ -39,7 +39,7 @@ they end).
 
 from __future__ import annotations
 
-from multicrane.core.codes import WAIT, Status
+from multicrane.core.codes import Status
 from multicrane.sim.event_knowledge import EventView, event_view, frozen_components
 from multicrane.tasks.carrier import Carrier
 from multicrane.tasks.reservation_arrays import ReservationArrays
@@ -187,10 +187,8 @@ class EventCarrier(Carrier):
     def reaches_pair(self, crane: int, comp: int, target: int) -> bool:
         return self.crane_up(crane) and super().reaches_pair(crane, comp, target)
 
-    def _action(self, crane: int, T: int) -> int:
-        if not self.crane_up(crane):
-            return WAIT
-        return super()._action(crane, T)
+    def cranes_down(self) -> frozenset[int] | tuple:
+        return () if self._view is None else self._view.down
 
 
 __all__ = ["CLOSED", "EventCarrier"]

@@ -71,6 +71,12 @@ class Plan:
         i = t - self.t0
         return self.positions[i if i < len(self.positions) else -1]
 
+    def move_at(self, t: int) -> int:
+        """``at(t + 1) - at(t)``: the position's change in step ``t + 1``."""
+        pos = self.positions
+        i = t - self.t0
+        return pos[i + 1] - pos[i] if i < len(pos) - 1 else 0
+
 
 class ReservationTable(dict[int, list[Interval]]):
     """Cell -> the intervals during which components hold it (a plain dict underneath)."""
