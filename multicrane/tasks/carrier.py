@@ -130,10 +130,8 @@ class Carrier:
 
     def reaches_pair(self, crane: int, comp: int, target: int) -> bool:
         """The crane's zone holds the component's pick-up pose and the target (static)."""
-        site = self.sim.site
-        return site.reaches(crane, self.sim.state.pickup[comp]) and site.reaches(
-            crane, site.target_cells[target]
-        )
+        reaches, pick = self.sim.site.reaches, self.sim.state.pickup[comp]
+        return reaches(crane, pick) and reaches(crane, self.sim.site.target_cells[target])
 
     # -- the round -----------------------------------------------------------------------------
 
@@ -152,8 +150,7 @@ class Carrier:
         diverged = self._sync(T) or self._force_replan
         self._force_replan = False
         status = sim.views.status
-        # Every component in transit is held (tests/sim/test_invariants.py): the cranes'
-        # loads, in index order.
+        # In transit = held by a crane (tests/sim/test_invariants.py); in index order.
         transit = sorted(c for c in sim.state.held if c != NOBODY and status[c] == _IN_TRANSIT)
         unplanned = [c for c in transit if c not in self.plans]
         if diverged or unplanned:
@@ -238,6 +235,9 @@ class Carrier:
 
     def cranes_down(self) -> frozenset[int] | tuple:
         return ()  # none without site events (``EventCarrier``)
+
+    def crane_up(self, crane: int) -> bool:
+        return crane not in self.cranes_down()
 
     def _planned(self, T: int) -> list[int]:
         """Each crane's action by the plans: wait while it assembles, is passed over or is

@@ -70,10 +70,6 @@ class EventCarrier(Carrier):
         taken.update(t for c, t in self._kept.items() if c != self._planning)
         return taken
 
-    def crane_up(self, crane: int) -> bool:
-        """The crane is available now (always, without events)."""
-        return self._view is None or crane not in self._view.down
-
     def begin(self, T: int) -> None:
         if self._round == T:
             return
