@@ -51,7 +51,10 @@ def physical_step(sim: Simulator, rng: np.random.Generator, reward: str, joint: 
     """One simulated step with one motion action per crane (the crane order drawn from
     ``rng``): ``(outcome, reward, reward terms, paper reward)``."""
     n = sim.n_cranes
-    order = rng.permutation(n).tolist() if n > 1 else None
+    order = None
+    if n > 1:  # ``rng.permutation(n).tolist()``: the same draws, shuffled in a list (faster)
+        order = list(range(n))
+        rng.shuffle(order)
     out: StepOutcome = sim.step(joint, order)
     paper, progress_by, over = reward_rules.step_reward(sim, out)
     if reward == "paper":

@@ -1,8 +1,9 @@
 """Copies of a task-level environment for rollouts: planners play them to the end to judge a plan.
 
 ``rollout_copy(env)`` deep-copies an unwrapped ``MultiCraneEnv`` but shares what no episode
-changes (the scenario, the site, the task list, and the static path lengths and goal poses,
-caches of the site's, and what the simulator keeps fixed for the episode,
+changes (the scenario, the site, the task list, and the static path lengths, goal poses and
+search inputs, caches of the site's (``multicrane.tasks.shape_cache``: its distance oracles
+hold for any copy), and what the simulator keeps fixed for the episode,
 ``Simulator.shared_with_copies``), shares the episode's kept search answers
 (``Carrier.share_searches``, ``multicrane.tasks.search_memo``: the copies ask the same
 searches again and again), and starts the episode's trace afresh: a rollout is never recorded,
@@ -34,7 +35,7 @@ def rollout_copy(env):
     book = mode.task_book()
     carrier = book.carrier
     shared = (env.scenario, env.sim.scenario, env.sim.site, env.observation_layout,
-              book.tasks, book.static, carrier.goals, carrier.share_searches(),
+              book.tasks, book.static, carrier.goals, carrier.shapes, carrier.share_searches(),
               *env.sim.shared_with_copies())  # fmt: skip
     memo = {id(x): x for x in shared if x is not None}
     for trace in (mode.trace, mode.trace_events, mode.trace_rewards, mode.decisions):

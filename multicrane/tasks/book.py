@@ -286,7 +286,7 @@ class TaskBook:
         T = sim.state.step_count
         carrier.begin(T)  # the round's own work (replans after events), kept and counted
         if self._probe_t == T and self._probe:
-            shared = (sim, self.tasks, self.static, carrier.memo)  # the memo: exact answers
+            shared = (sim, self.tasks, self.static, carrier.shapes, carrier.memo)  # exact answers
             scratch = copy.deepcopy(self, {id(x): x for x in shared if x is not None})
             for crane in scratch._probe:
                 scratch.carrier.cancel(crane)

@@ -62,6 +62,7 @@ class Carrier:
         self._move_of = {d: m for m, d in enumerate(sim.site.move_delta)}
         self._deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
         self.goals = GoalPoses(sim.site)  # the goal pose per (shape, target)
+        self.shapes = ShapeCache(sim.site)  # base, reach and distance oracles of the searches
         self._pickups: list | None = None  # the pick-up poses ``_distances`` belong to
         self._distances = np.zeros((0, 0), dtype=np.int64)
         self.reset()
@@ -71,7 +72,6 @@ class Carrier:
         self.plans: dict[int, Plan] = {}
         self._seq: dict[int, int] = {}  # comp -> plan creation number (the priority)
         self._counter = 0
-        self._shapes = ShapeCache(self.sim)
         self._force_replan = False
         self._round: int | None = None
         self._res: ReservationArrays | None = None
@@ -311,11 +311,11 @@ class Carrier:
         zone = crane if sim.site.reach is not None else -1
 
         def search():
-            ok = self._shapes.base_ok(sim, rel, zone)
-            h = self._shapes.heuristic(sim, rel, goal, zone)
+            shapes = self.shapes
             return compiled_search(
-                res, comp, rel, start, t_start, goal, stops, ok, h,
-                self._deltas, self.slack, self.max_expansions, lifted_onto_goal_arrives=claim,
+                res, comp, rel, start, t_start, goal, stops, shapes.site_inputs(sim, rel, zone),
+                shapes.oracle(sim, rel, goal, zone, start), self.slack, self.max_expansions,
+                lifted_onto_goal_arrives=claim,
             )  # fmt: skip
 
         scalars = (comp, start, t_start, goal, zone, claim, self.slack, self.max_expansions)

@@ -86,8 +86,6 @@ class EventCarrier(Carrier):
         self._frozen = frozen
         self.stats.setdefault("event_replans", 0)
         delivered = set(old.undelivered - view.undelivered) if old is not None else set()
-        if old is None or delivered:
-            self._shapes._base_key = None  # the fit mask depends on the delivered components
         new_down = view.down - (old.down if old else frozenset())
         new_closed = set(view.closed) - set(old.closed if old else ())
         if new_down or new_closed or self._crossed(delivered, T):
@@ -169,14 +167,14 @@ class EventCarrier(Carrier):
         by the table's rule (``multicrane.tasks.reservations``), or None."""
         sim = self.sim
         zone = crane if sim.site.reach is not None else -1
-        ok = self._shapes.base_ok(sim, rel, zone)
         stops = self._stops(comp, rel, target)
         here = [start + r for r in rel]
         if res.conflict(here, T + 1, INF, comp):
             return None
         for d in self._deltas.tolist():
             q = start + d
-            if ok[q] and q not in stops and not res.conflict([q + r for r in rel], T, T + 2, comp):
+            if (self.shapes.fits(sim, rel, zone, q) and q not in stops
+                    and not res.conflict([q + r for r in rel], T, T + 2, comp)):
                 return [start, q, start]
         return None
 

@@ -105,20 +105,23 @@ def compiled_search(
     t_start: int,
     goal: int,
     stops: set[int],
-    ok: np.ndarray,
-    h: np.ndarray,
-    deltas: np.ndarray,
+    site: tuple[np.ndarray, ...],
+    oracle: np.ndarray,
     slack: int,
     max_expansions: int,
     lifted_onto_goal_arrives: bool = True,
 ) -> tuple[list[int] | None, int]:
-    """``reservations.space_time_search`` (same arguments, same answer) on the compiled
-    kernel: ``ok`` a flag and ``h`` a distance per position (numpy arrays)."""
-    stop = np.zeros(len(ok), dtype=np.bool_)
+    """``reservations.space_time_search`` (same answer) on the compiled kernel: ``site`` is
+    ``(occ, status, static, reach, coords, deltas)`` (``ShapeCache.site_inputs``), from which
+    the kernel reads the fit (``distance_oracle.fits_base``), and ``oracle`` gives the distances
+    to the goal (``multicrane.tasks.distance_oracle``)."""
+    occ, status, static, reach, coords, deltas = site
+    stop = np.zeros(occ.size, dtype=np.bool_)
     if stops:
         stop[list(stops)] = True
     path, expansions = space_time_kernel(
         res.rows, res.n, comp, np.asarray(rel, dtype=np.int64), start, t_start, goal, stop,
-        ok, h, deltas, slack, max_expansions, lifted_onto_goal_arrives, INF,
+        occ, status, static, reach, coords, deltas, oracle, slack, max_expansions,
+        lifted_onto_goal_arrives, INF,
     )  # fmt: skip
     return (path.tolist() if len(path) else None), int(expansions)

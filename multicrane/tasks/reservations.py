@@ -19,16 +19,16 @@ cranes have acted yet in the step or not, so it is never blocked.
 path holds its positions step by step and, from its arrival on, its goal pose for ever
 (``INF``): an arrived component stays where it is. What never moves during a search (walls,
 obstacles, yard components, arrived and assembled ones) is not in the table but in the *base*
-(``multicrane.tasks.shape_cache.ShapeCache.base_ok``: a fit mask per component shape).
+(``ok``: where the component's shape fits it; ``multicrane.tasks.distance_oracle.fits_base``).
 
 **Search** (``space_time_search``): A* over (position, time) states, wait or one of the six
 moves per step, cost one per step, heuristic the breadth-first distance to the goal around
-walls and placed components (``ShapeCache.heuristic``; admissible, since yard components and
-components in transit only add detours). A time cap (shortest length + ``slack``) and an
-expansion cap bound each search. Positions in ``stops`` (poses of other targets the component
-would arrive at) are never entered; the goal is entered only once no other reservation touches
-its cells from then on (a search whose goal is held up to its time cap fails at once, without
-expanding a state: no path could arrive in time).
+walls and placed components (``h``; ``multicrane.tasks.distance_oracle``; admissible, since
+yard components and components in transit only add detours). A time cap (shortest length +
+``slack``) and an expansion cap bound each search. Positions in ``stops`` (poses of other
+targets the component would arrive at) are never entered; the goal is entered only once no
+other reservation touches its cells from then on (a search whose goal is held up to its time
+cap fails at once, without expanding a state: no path could arrive in time).
 
 **Specification and fast path.** ``ReservationTable`` and ``space_time_search`` here are the
 readable specification; the carrier runs the same search compiled, on the same reservations

@@ -1,11 +1,13 @@
-"""Compiled kernels of the carrier's searches: space-time A*, breadth-first distances, table scans.
+"""Compiled kernels of the carrier's searches: the space-time A* and the scans of its table.
 
 The reservations here are flat rows ``(cell, from, to, component)`` (``ReservationArrays``,
 ``multicrane.tasks.reservation_arrays``), positions and shapes are linear indices of the padded
 grid, exactly as in ``multicrane.tasks.reservations``, whose Python ``space_time_search`` is the
 specification: ``space_time_kernel`` follows it step for step (the same heap order, so the
 same states expanded in the same order, the same path and the same count of expansions;
-``tests/tasks/test_search_kernels.py`` compares them). Plain arrays in, plain arrays out; numba
+``tests/tasks/test_search_kernels.py`` compares them). Where the specification reads whole fit
+and distance arrays, the kernel asks the site and a distance oracle at the positions it
+reaches (``multicrane.tasks.distance_oracle``). Plain arrays in, plain arrays out; numba
 ``njit(cache=True)``, so a second process loads the machine code.
 """
 
@@ -14,45 +16,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from multicrane.tasks.distance_oracle import CLOSED, fits_base, resume
+
 CELL, FROM, TO, OWNER = range(4)  # the columns of a reservation row
-
-
-@numba.njit(cache=True)
-def breadth_first_kernel(ok, goal, deltas):
-    """Moves from every position to ``goal`` over positions in ``ok`` (-1 where none): the
-    distances of ``multicrane.sim.grid_search.breadth_first(ok, [goal], deltas)``, for the
-    grid's six moves (``deltas``; ValueError otherwise)."""
-    if deltas.size != 6:
-        raise ValueError("breadth_first_kernel takes the six moves of the grid")
-    return _breadth_first_six(ok, goal, deltas)
-
-
-@numba.njit(cache=True)
-def _breadth_first_six(ok, goal, deltas):
-    """``breadth_first_kernel`` with its loop over the six moves unrolled."""
-    n = ok.size
-    dist = np.full(n, -1, dtype=np.int32)
-    if not ok[goal]:
-        return dist
-    d0, d1, d2, d3, d4, d5 = deltas[0], deltas[1], deltas[2], deltas[3], deltas[4], deltas[5]
-    open_ = ok.copy()  # in ``ok`` and not reached yet
-    queue = np.empty(n, dtype=np.int32)  # positions (a grid has fewer than 2**31)
-    queue[0] = goal
-    dist[goal] = 0
-    open_[goal] = False
-    head, tail = 0, 1
-    while head < tail:
-        p = queue[head]
-        head += 1
-        step = dist[p] + 1
-        for d in (d0, d1, d2, d3, d4, d5):
-            q = p + d
-            if 0 <= q < n and open_[q]:
-                open_[q] = False
-                dist[q] = step
-                queue[tail] = q
-                tail += 1
-    return dist
 
 
 @numba.njit(cache=True)
@@ -138,45 +104,52 @@ def _held(rows, head, nxt, rel, p, lo, hi):
 
 @numba.njit(cache=True)
 def space_time_kernel(
-    rows, n_rows, comp, rel, start, t_start, goal, stop, ok, h, deltas, slack,
-    max_expansions, lifted_onto_goal_arrives, inf,
+    rows, n_rows, comp, rel, start, t_start, goal, stop, occ, status, static, reach, coords,
+    deltas, oracle, slack, max_expansions, lifted_onto_goal_arrives, inf,
 ):  # fmt: skip
     """``reservations.space_time_search`` on flat reservation rows: (the path's positions,
-    empty when none; the states expanded). ``stop``: a flag per position (the stop poses)."""
-    h0 = np.int64(h[start])
-    if h0 < 0 or not ok[goal]:
-        return np.empty(0, dtype=np.int64), 0
+    empty when none; the states expanded). ``stop``: a flag per position (the stop poses);
+    the fit is ``distance_oracle.fits_base`` of ``occ``, ``status`` and ``reach``, and the
+    distances to the goal are the ``oracle``'s (``multicrane.tasks.distance_oracle``, which
+    reads the site's arrays given here)."""
+    site = (occ, status, static, reach, rel, coords, deltas)
+    empty = np.empty(0, dtype=np.int64)
+    if not fits_base(occ, status, reach, rel, goal):
+        return empty, 0
     free_from = goal_free_from_kernel(rows, n_rows, comp, rel, goal, t_start, inf)
     if free_from < 0:
-        return np.empty(0, dtype=np.int64), 0
+        return empty, 0
+    h0 = resume(oracle, *site, start)
+    if h0 < 0:
+        return empty, 0
     if start == goal and lifted_onto_goal_arrives:
-        if t_start >= free_from:
-            return np.full(1, start, dtype=np.int64), 0
-        return np.empty(0, dtype=np.int64), 0
+        return (np.full(1, start, dtype=np.int64) if t_start >= free_from else empty), 0
     t_cap = t_start + h0 + slack
     if free_from >= t_cap:  # held up to the time cap: no arrival in time (specification)
-        return np.empty(0, dtype=np.int64), 0
-    head, nxt = _cell_lists(rows, n_rows, comp, t_start, ok.size)
+        return empty, 0
+    head, nxt = _cell_lists(rows, n_rows, comp, t_start, stop.size)
     below = free_from - t_start  # no arrival before: every state of lower f comes first
     if below > h0 and _states_below(
-        rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, below, max_expansions,
+        rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, below, max_expansions,
     ) > max_expansions:  # fmt: skip
-        return np.empty(0, dtype=np.int64), max_expansions + 1  # the A* stops at its cap
-    if ok.size * (t_cap - t_start + 1) < 2**31:  # every state key fits 32 bits: half the table
+        return empty, max_expansions + 1  # the A* stops at its cap
+    if stop.size * (t_cap - t_start + 1) < 2**31:  # every state key fits 32 bits: half the table
         keys, parents = np.full(1024, _EMPTY, np.int32), np.empty(1024, np.int32)
         return _astar(
-            rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
+            rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, t_cap, free_from,
             max_expansions, keys, parents,
         )  # fmt: skip
     keys, parents = np.full(1024, _EMPTY, np.int64), np.empty(1024, np.int64)
     return _astar(
-        rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
+        rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, t_cap, free_from,
         max_expansions, keys, parents,
     )  # fmt: skip
 
 
 @numba.njit(cache=True)
-def _states_below(rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, below, limit):
+def _states_below(
+    rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, below, limit,
+):  # fmt: skip
     """How many states ``(p, t)`` with ``f = t - t_start + h[p] < below`` the A* reaches,
     counted up to ``limit + 1``: time layer by time layer, by the A*'s own moves and checks.
 
@@ -185,7 +158,9 @@ def _states_below(rows, head, nxt, rel, start, t_start, goal, stop, ok, h, delta
     any state of ``f >= below``. When ``below`` is at most the goal's ``f`` (the goal is not
     free before ``t_start + below``), the A* expands them all before it finds the goal: more
     than ``limit`` of them and it stops at its cap without a path."""
-    n = ok.size
+    occ, status, _, reach, _, _, deltas = site
+    n = stop.size
+    dist, mark = oracle[:n], oracle[n : 2 * n]
     layer_of = np.full(n, -1, dtype=np.int32)  # the last layer a position was put in
     layer = np.empty(n, dtype=np.int32)
     after = np.empty(n, dtype=np.int32)
@@ -202,15 +177,16 @@ def _states_below(rows, head, nxt, rel, start, t_start, goal, stop, ok, h, delta
             p = layer[k]
             if _held(rows, head, nxt, rel, p, t1, t1):
                 continue  # the A* expands nothing from here
-            if p != goal and g1 + h[p] < below and layer_of[p] != g1:  # wait
+            if p != goal and g1 + dist[p] < below and layer_of[p] != g1:  # wait (p: closed)
                 layer_of[p] = g1
                 after[grown] = p
                 grown += 1
             for d in deltas:
                 q = p + d
-                if q < 0 or q >= n or not ok[q] or stop[q] or q == goal:
+                if q < 0 or q >= n or stop[q] or q == goal or not fits_base(
+                        occ, status, reach, rel, q):  # fmt: skip
                     continue
-                hq = h[q]
+                hq = np.int64(dist[q]) if mark[q] == CLOSED else resume(oracle, *site, q)
                 if hq < 0 or g1 + hq >= below or layer_of[q] == g1:
                     continue
                 if _held(rows, head, nxt, rel, q, t, t1):
@@ -297,7 +273,7 @@ def _pop(levels, sizes, level):
 
 @numba.njit(cache=True)
 def _astar(
-    rows, head, nxt, rel, start, t_start, goal, stop, ok, h, deltas, t_cap, free_from,
+    rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, t_cap, free_from,
     max_expansions, keys, parents,
 ):  # fmt: skip
     """The A* loop of ``reservations._astar``. A state ``(p, t)`` is the key
@@ -310,13 +286,15 @@ def _astar(
     state's ``f`` is the popped one's plus 0, 1 or 2, so every open ``f`` lies in
     ``f_now .. f_now + 2``; one heap per ``f`` (rows ``f % 3``) orders its states by
     ``h * n + p``, since ``t = t_start + f - h`` is then fixed."""
-    n = ok.size
+    occ, status, _, reach, _, _, deltas = site
+    n = stop.size
+    dist, mark = oracle[:n], oracle[n : 2 * n]
     span = t_cap - t_start + 1
     mask = keys.size - 1
     i = _slot(keys, start * span, mask)
     keys[i], parents[i] = start * span, -1
     count = 1
-    f_now = np.int64(h[start])
+    f_now = resume(oracle, *site, start)
     levels = np.empty((3, 4096), dtype=np.int64)  # the heap of f at row f % 3
     sizes = np.zeros(3, dtype=np.int64)
     levels = _push(levels, sizes, f_now % 3, f_now * n + start)
@@ -347,9 +325,9 @@ def _astar(
             levels = _push(levels, sizes, (f_now + 1) % 3, hp * n + p)
         for d in deltas:
             q = p + d
-            if q < 0 or q >= n or not ok[q] or stop[q]:
+            if q < 0 or q >= n or stop[q] or not fits_base(occ, status, reach, rel, q):
                 continue
-            hq = np.int64(h[q])
+            hq = np.int64(dist[q]) if mark[q] == CLOSED else resume(oracle, *site, q)
             if hq < 0:
                 continue
             key = q * span + t1 - t_start

@@ -8,9 +8,10 @@ search's answer (its path, or none, and the states it expanded) is a function of
 - the reservation rows in use (``ReservationArrays``), byte for byte;
 - the component, its shape, start, start time, goal, stop poses, the crane's zone, whether it is
   lifted, and the carrier's slack and expansion cap;
-- the fit mask and the heuristic (``multicrane.tasks.shape_cache``), built from the site, the
-  yard and the cells of the arrived and assembled components: within one episode the yard is
-  fixed (the pick-up poses) and those cells follow from the statuses and filled targets.
+- the fit and the distances to the goal (``multicrane.tasks.distance_oracle``), read from the
+  site, the yard and the cells of the arrived and assembled components: within one episode the
+  yard is fixed (the pick-up poses) and those cells follow from the statuses and filled
+  targets.
 
 ``SearchMemo`` keeps the answers under 16 bytes of a SHA-256 digest of those inputs. It
 serves one yard: a site whose pick-up poses differ (another episode) empties it. Sites with

@@ -1,98 +1,84 @@
-"""The carrier's per-shape caches: where a component shape fits the base, and distances to goals.
+"""What the carrier's searches read besides the reservations: base, reach, distance oracles.
 
-The *base* is what never moves during a search (walls, obstacles, yard components, arrived
-and assembled ones; ``multicrane.tasks.reservations``); the distances, breadth-first around
-walls and placed components, are the space-time search's heuristic. Both are numpy arrays
-(one entry per position of the padded grid), as the compiled search takes them.
+A space-time search (``multicrane.tasks.search_kernels``) asks of a position whether the
+component's shape fits the base there and how far it is from the goal
+(``multicrane.tasks.distance_oracle``). ``ShapeCache`` gives it the inputs: the site's cells and
+statuses now, where the shape lies in the crane's reach (a bool per position, kept per shape
+and crane), the grid coordinates, and an oracle per (shape, goal, crane, start). An oracle
+holds the distances its reverse search found so far; they depend on the site, the shape, the
+reach and the placed components, which the filled targets fix (a component fills its target
+from its arrival on). So the oracles are kept under the filled targets (the last
+``capacity``), for the episode's copies and later episodes alike: a search asked again (a held
+task retried each step, a rollout) goes on where the last one stopped.
 """
 
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import numpy as np
 
-from multicrane.core.codes import Status
 from multicrane.sim.shortest_paths import fits_everywhere
-from multicrane.sim.simulator import FREE, WALL, Simulator
-from multicrane.tasks.search_kernels import breadth_first_kernel
+from multicrane.sim.simulator import Simulator
+from multicrane.sim.site import Site
+from multicrane.tasks.distance_oracle import fits_base, lazy_distances
 
-_IN_TRANSIT, _ARRIVED = int(Status.IN_TRANSIT), int(Status.ARRIVED)
+_ORACLE_BYTES = 64 << 20  # the oracles kept hold about this much at most (16 a position)
 
 
 class ShapeCache:
-    """Per component shape: where it fits the base, and breadth-first distances to goals.
+    """One site's search inputs: base, reach and distance oracles (module doc)."""
 
-    The base fit is recomputed when some status changes, the distances when some component
-    arrives or is assembled; both are cached per shape (and goal) until then.
-    """
+    def __init__(self, site: Site):
+        self.site = site
+        cells = np.unravel_index(np.arange(site.size), site.shape)
+        self.coords = np.stack(cells, axis=1).astype(np.int32).ravel()  # x, y, z of p at 3p
+        self.deltas = np.asarray(site.move_delta, dtype=np.int64)
+        self._reach: dict[tuple, np.ndarray] = {}
+        self._everywhere = np.ones(site.size, dtype=np.bool_)  # the reach without limits
+        self.capacity = max(8, min(64, _ORACLE_BYTES // (16 * site.size)))
+        self._oracles: OrderedDict[tuple, np.ndarray] = OrderedDict()
 
-    def __init__(self, sim: Simulator):
-        self.walls = sim.site.static == WALL
-        self.deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
-        self._base_key: bytes | None = None
-        self._base_free: np.ndarray | None = None
-        self._fit: dict[tuple, np.ndarray] = {}
-        self._h_cache: dict[tuple, np.ndarray] = {}
-        self._h_key: bytes | None = None
-        self._h_fit: dict[tuple, np.ndarray] = {}
-        self._zone_fit: dict[tuple, np.ndarray] = {}
-
-    def base_ok(self, sim: Simulator, rel: tuple[int, ...], zone: int = -1) -> np.ndarray:
-        """Positions where a component of this shape fits the base (no component in transit)
-        and, for ``zone >= 0``, lies wholly in that crane's reach (``Site.reach``)."""
-        status = sim.state.status
-        key = status.tobytes()
-        if key != self._base_key:
-            free = sim.state.occ == FREE
-            free[_cells_of(sim, status == _IN_TRANSIT)] = True
-            self._base_key, self._base_free, self._fit = key, free, {}
-        ok = self._fit.get((rel, zone))
-        if ok is None:
-            ok = fits_everywhere(self._base_free, rel)
-            if zone >= 0:
-                ok &= self.zone_fit(sim, rel, zone)
-            self._fit[(rel, zone)] = ok
-        return ok
-
-    def zone_fit(self, sim: Simulator, rel: tuple[int, ...], zone: int) -> np.ndarray:
-        """Positions where a component of this shape lies wholly in crane ``zone``'s reach."""
-        key = (rel, zone)
-        fit = self._zone_fit.get(key)
+    def reach(self, rel: tuple[int, ...], zone: int) -> np.ndarray:
+        """Positions where a shape lies wholly in crane ``zone``'s reach (``Site.reach``);
+        every position for ``zone < 0`` (no limit)."""
+        if zone < 0:
+            return self._everywhere
+        fit = self._reach.get((rel, zone))
         if fit is None:
-            fit = fits_everywhere(sim.site.reach[zone], rel)
-            self._zone_fit[key] = fit
+            fit = self._reach[rel, zone] = fits_everywhere(self.site.reach[zone], rel)
         return fit
 
-    def heuristic(
-        self, sim: Simulator, rel: tuple[int, ...], goal: int, zone: int = -1
+    def site_inputs(self, sim: Simulator, rel: tuple[int, ...], zone: int) -> tuple:
+        """``(occ, status, static, reach, coords, deltas)``: what a search reads of the site
+        now (``reservation_arrays.compiled_search``)."""
+        st = sim.state
+        return st.occ, st.status, self.site.static, self.reach(rel, zone), self.coords, self.deltas
+
+    def fits(self, sim: Simulator, rel: tuple[int, ...], zone: int, p: int) -> bool:
+        """The shape at ``p`` fits the base now (``distance_oracle.fits_base``), in crane
+        ``zone``'s reach."""
+        st = sim.state
+        rel_a = np.asarray(rel, dtype=np.int64)
+        return bool(fits_base(st.occ, st.status, self.reach(rel, zone), rel_a, p))
+
+    def oracle(
+        self, sim: Simulator, rel: tuple[int, ...], goal: int, zone: int, start: int
     ) -> np.ndarray:
-        """Breadth-first moves to ``goal`` over walls and placed components, inside crane
-        ``zone``'s reach when ``zone >= 0`` (-1: none)."""
-        status = sim.state.status
-        key = (status >= _ARRIVED).tobytes()
-        if key != self._h_key:
-            self._h_key, self._h_cache, self._h_fit = key, {}, {}
-        h = self._h_cache.get((rel, goal, zone))
-        if h is None:
-            h = breadth_first_kernel(self._placed_fit(sim, rel, zone), goal, self.deltas)
-            self._h_cache[(rel, goal, zone)] = h
-        return h
-
-    def _placed_fit(self, sim: Simulator, rel: tuple[int, ...], zone: int) -> np.ndarray:
-        """Positions where the shape fits around walls and placed components (and in crane
-        ``zone``'s reach when ``zone >= 0``); cached with the distances."""
-        fit = self._h_fit.get((rel, zone))
-        if fit is None:
-            status = sim.state.status
-            free = ~self.walls
-            free[_cells_of(sim, status >= _ARRIVED)] = False
-            fit = fits_everywhere(free, rel)
-            if zone >= 0:
-                fit &= self.zone_fit(sim, rel, zone)
-            self._h_fit[(rel, zone)] = fit
-        return fit
-
-
-def _cells_of(sim: Simulator, chosen: np.ndarray) -> list[int]:
-    """The cells of the components ``chosen`` (a bool per component) marks, in one list."""
-    cells = sim.state.cells
-    return [j for comp in np.flatnonzero(chosen).tolist() for j in cells[comp]]
+        """The distance oracle of a shape's moves to ``goal`` in crane ``zone``'s reach,
+        aimed at ``start``, for the components placed now (kept: module doc)."""
+        st = sim.state
+        key = (st.filled.tobytes(), rel, goal, zone, start)
+        kept = self._oracles
+        oracle = kept.get(key)
+        if oracle is not None:
+            kept.move_to_end(key)
+            return oracle
+        oracle = lazy_distances(
+            st.occ, st.status, self.site.static, self.reach(rel, zone),
+            np.asarray(rel, dtype=np.int64), self.coords, start, goal,
+        )  # fmt: skip
+        kept[key] = oracle
+        if len(kept) > self.capacity:
+            kept.popitem(last=False)
+        return oracle

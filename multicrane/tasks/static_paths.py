@@ -3,18 +3,19 @@
 A task's static length is the fewest moves of its component, rigid, from its pick-up pose to
 its target's pose through the site without any other component (the same for every crane
 without reach zones; inside the crane's zone with them). The task book ranks and masks tasks
-with it and the task observation shows it; the breadth-first distances behind it are cached
-for the life of the site, per (shape, goal pose, zone).
+with it and the task observation shows it; the breadth-first distances behind it
+(``breadth_first_kernel``, compiled) are cached for the life of the site, per (shape, goal
+pose, zone).
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from multicrane.sim.shortest_paths import UNREACHABLE, fits_everywhere
 from multicrane.sim.simulator import FREE, Simulator
 from multicrane.tasks.reservations import GoalPoses
-from multicrane.tasks.search_kernels import breadth_first_kernel
 
 
 class StaticPaths:
@@ -69,4 +70,42 @@ def compact(dist: np.ndarray) -> np.ndarray:
     """Distances (int32, -1: none) as int16 when every one fits: a site keeps many fields."""
     if dist.size and dist.max() <= np.iinfo(np.int16).max:
         return dist.astype(np.int16)
+    return dist
+
+
+@numba.njit(cache=True)
+def breadth_first_kernel(ok, goal, deltas):
+    """Moves from every position to ``goal`` over positions in ``ok`` (-1 where none): the
+    distances of ``multicrane.sim.grid_search.breadth_first(ok, [goal], deltas)``, for the
+    grid's six moves (``deltas``; ValueError otherwise)."""
+    if deltas.size != 6:
+        raise ValueError("breadth_first_kernel takes the six moves of the grid")
+    return _breadth_first_six(ok, goal, deltas)
+
+
+@numba.njit(cache=True)
+def _breadth_first_six(ok, goal, deltas):
+    """``breadth_first_kernel`` with its loop over the six moves unrolled."""
+    n = ok.size
+    dist = np.full(n, -1, dtype=np.int32)
+    if not ok[goal]:
+        return dist
+    d0, d1, d2, d3, d4, d5 = deltas[0], deltas[1], deltas[2], deltas[3], deltas[4], deltas[5]
+    open_ = ok.copy()  # in ``ok`` and not reached yet
+    queue = np.empty(n, dtype=np.int32)  # positions (a grid has fewer than 2**31)
+    queue[0] = goal
+    dist[goal] = 0
+    open_[goal] = False
+    head, tail = 0, 1
+    while head < tail:
+        p = queue[head]
+        head += 1
+        step = dist[p] + 1
+        for d in (d0, d1, d2, d3, d4, d5):
+            q = p + d
+            if 0 <= q < n and open_[q]:
+                open_[q] = False
+                dist[q] = step
+                queue[tail] = q
+                tail += 1
     return dist

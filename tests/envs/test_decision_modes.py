@@ -143,3 +143,28 @@ def test_the_motion_mode_refuses_the_task_questions():
             ask()
     with pytest.raises(ValueError, match="task-level planners"):
         TaskGreedy(env)
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 7])
+def test_the_crane_order_is_the_generators_permutation(n):
+    """``physical_step`` draws each step's crane order as ``rng.permutation(n)`` does (the vector
+    env replays those draws, ``multicrane.vector.pcg64``): the same orders, and the generator
+    left in the same state."""
+    from multicrane.envs import motion_mode
+
+    orders = []
+
+    class Recorder:
+        n_cranes = n
+
+        def step(self, joint, order):
+            orders.append(order)
+            raise StopIteration  # the order is all this test looks at
+
+    for seed in range(50):
+        rng, twin = np.random.default_rng(seed), np.random.default_rng(seed)
+        for _ in range(3):
+            with pytest.raises(StopIteration):
+                motion_mode.physical_step(Recorder(), rng, "paper", [WAIT] * n)
+            assert orders[-1] == twin.permutation(n).tolist()
+        assert rng.bit_generator.state == twin.bit_generator.state

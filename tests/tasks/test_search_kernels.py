@@ -2,9 +2,11 @@
 
 ``multicrane.tasks.search_kernels`` (run by the carrier through ``ReservationArrays`` and
 ``compiled_search``) must answer exactly as ``multicrane.tasks.reservations`` (the dict table
-and the Python A*) and ``multicrane.sim.grid_search.breadth_first``: hypothesis draws small
-grids with random reservation tables, and states of shipped scenarios reached by random
-legal tasks, and every search is run both ways.
+and the Python A* over whole fit and distance arrays) and
+``multicrane.sim.grid_search.breadth_first``: hypothesis draws small grids with random
+reservation tables, and states of shipped scenarios reached by random legal tasks, and every
+search is run both ways, the compiled one with the distances given and found on demand
+(``multicrane.tasks.distance_oracle``).
 """
 
 from __future__ import annotations
@@ -15,9 +17,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import multicrane
+from multicrane.core.codes import Status
 from multicrane.episodes.random_actions import random_legal_action
 from multicrane.sim.grid_search import breadth_first, fits_everywhere
+from multicrane.sim.site import FREE, WALL
 from multicrane.tasks import search_kernels
+from multicrane.tasks.distance_oracle import known_distances, lazy_distances
 from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
 from multicrane.tasks.reservations import (
     INF,
@@ -27,8 +32,9 @@ from multicrane.tasks.reservations import (
     shape_of,
     space_time_search,
 )
-from multicrane.tasks.search_kernels import breadth_first_kernel, goal_free_from_kernel
+from multicrane.tasks.search_kernels import goal_free_from_kernel
 from multicrane.tasks.shape_cache import ShapeCache
+from multicrane.tasks.static_paths import breadth_first_kernel
 
 SIDE = 7  # a SIDE^3 grid with a wall ring: flat index (x * SIDE + y) * SIDE + z
 DELTAS = [SIDE * SIDE, -SIDE * SIDE, SIDE, -SIDE, 1, -1]
@@ -75,37 +81,61 @@ def tables(draw):
     return spec, arrays
 
 
-def _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, deltas,
+def _site(free):
+    """The kernel's site inputs for a grid whose free cells are ``free`` (walls elsewhere, no
+    components): ``(occ, status, static, reach, coords, deltas)``."""
+    occ = np.where(free, FREE, WALL).astype(np.int16)
+    coords = np.stack(np.unravel_index(np.arange(SIDE**3), (SIDE,) * 3), axis=1)
+    return (occ, np.zeros(0, np.int8), occ, np.ones(SIDE**3, np.bool_),
+            coords.astype(np.int32).ravel(), np.array(DELTAS))  # fmt: skip
+
+
+def _both(spec, arrays, comp, rel, start, t_start, goal, stops, site, ok, h, slack, lifted,
           cap=2000):  # fmt: skip
-    """Both searches' answers (the specification on bytes and a memoryview, as it was
-    written for), asserted equal; ``cap``: the expansions each may make."""
+    """The specification's answer (on bytes and a memoryview, as it was written for, with
+    the fit ``ok`` and the distances ``h`` as whole arrays) and the compiled search's, reading
+    the fit from ``site`` and the distances given (``known_distances``) and found on demand
+    (``lazy_distances``, ``h`` being their breadth-first field): all equal. ``cap``: the
+    expansions each may make."""
+    occ, status, static, reach, coords, deltas = site
     a = space_time_search(
         spec, comp, rel, start, t_start, goal, stops, bytes(ok), memoryview(h), list(deltas),
         slack, cap, lifted_onto_goal_arrives=lifted,
     )  # fmt: skip
-    b = compiled_search(
-        arrays, comp, rel, start, t_start, goal, stops, ok, h, np.array(deltas), slack, cap,
-        lifted_onto_goal_arrives=lifted,
-    )  # fmt: skip
-    assert a == b
+    rel_a = np.asarray(rel, dtype=np.int64)
+    oracles = [known_distances(np.asarray(h, dtype=np.int32)),
+               lazy_distances(occ, status, static, reach, rel_a, coords, start, goal)]  # fmt: skip
+    for oracle in oracles:
+        b = compiled_search(
+            arrays, comp, rel, start, t_start, goal, stops, site, oracle, slack, cap,
+            lifted_onto_goal_arrives=lifted,
+        )  # fmt: skip
+        assert a == b
     return a
 
 
-def _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, ok, h, slack):
+def _kernel_site(site, rel):
+    """``site`` as the kernel's helpers take it: ``(occ, status, static, reach, rel, coords,
+    deltas)``."""
+    occ, status, static, reach, coords, deltas = site
+    return occ, status, static, reach, np.asarray(rel, dtype=np.int64), coords, deltas
+
+
+def _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, site, h, slack):
     """The A* loop with its state table in int32 (what every grid here gets) and in int64
     (grids whose states need 64-bit keys): the same answer."""
     rel = np.asarray(rel, dtype=np.int64)
     free_from = goal_free_from_kernel(arrays.rows, arrays.n, comp, rel, goal, t_start, INF)
     if h[start] < 0 or free_from < 0 or start == goal:
         return
-    stop = np.zeros(len(ok), dtype=np.bool_)
+    stop = np.zeros(SIDE**3, dtype=np.bool_)
     stop[list(stops)] = True
-    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, ok.size)
+    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, SIDE**3)
     answers = []
     for width in (np.int32, np.int64):
         answers.append(search_kernels._astar(
-            arrays.rows, head, nxt, rel, start, t_start, goal, stop, ok,
-            np.asarray(h, dtype=np.int32), np.array(DELTAS), t_start + h[start] + slack,
+            arrays.rows, head, nxt, rel, start, t_start, goal, stop, _kernel_site(site, rel),
+            known_distances(np.asarray(h, dtype=np.int32)), t_start + h[start] + slack,
             free_from, 2000, np.full(1024, -1, width), np.empty(1024, width),
         ))  # fmt: skip
     assert answers[0][1] == answers[1][1] and np.array_equal(answers[0][0], answers[1][0])
@@ -143,10 +173,11 @@ def test_compiled_search_is_the_specification(grid, both, data):
     h = breadth_first(ok, [goal], DELTAS)
     slack, lifted = data.draw(st.integers(0, 12)), data.draw(st.booleans())
     cap = data.draw(st.sampled_from([2000, 0, 1, 3, 10, 30, 100, 300]))
-    _both(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack, lifted, DELTAS,
-          cap)  # fmt: skip
-    _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack)
-    _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, ok, h, slack)
+    site = _site(free)
+    _both(spec, arrays, comp, rel, start, t_start, goal, stops, site, ok, h, slack, lifted, cap)
+    _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stops, site, ok, h,
+                             slack)  # fmt: skip
+    _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, site, h, slack)
     cells = [start + r for r in rel]
     lo = data.draw(st.integers(0, 25))
     hi = lo + data.draw(st.integers(0, 5))
@@ -156,7 +187,8 @@ def test_compiled_search_is_the_specification(grid, both, data):
     assert (free_from if free_from is not None else -1) == kernel
 
 
-def _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stops, ok, h, slack):
+def _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stops, site, ok, h,
+                             slack):  # fmt: skip
     """The count of states below the goal's free time (``_states_below``, which lets a
     search over its cap fail at once) never exceeds what the specification's A* expands
     (without a cap) before it finds the goal or runs out of states."""
@@ -169,8 +201,8 @@ def _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stop
     head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, ok.size)
     below = min(free_from, t_start + h[start] + slack) - t_start
     count = search_kernels._states_below(
-        arrays.rows, head, nxt, rel_a, start, t_start, goal, stop, ok,
-        np.asarray(h, dtype=np.int32), np.array(DELTAS), below, 10**9,
+        arrays.rows, head, nxt, rel_a, start, t_start, goal, stop, _kernel_site(site, rel),
+        known_distances(np.asarray(h, dtype=np.int32)), below, 10**9,
     )  # fmt: skip
     _, expanded = space_time_search(
         spec, comp, rel, start, t_start, goal, stops, bytes(ok), memoryview(h), DELTAS, slack,
@@ -192,14 +224,16 @@ def test_a_late_goal_over_the_cap_fails_as_the_specification():
     for table in (spec, arrays):
         table.hold([goal], 0, 10, 9)
     head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, 0, 0, ok.size)
+    site = _site(free)
     count = search_kernels._states_below(
         arrays.rows, head, nxt, np.zeros(1, dtype=np.int64), start, 0, goal,
-        np.zeros(ok.size, dtype=np.bool_), ok, h, np.array(DELTAS), 11, 10**9,
+        np.zeros(ok.size, dtype=np.bool_), _kernel_site(site, (0,)), known_distances(h), 11,
+        10**9,
     )  # fmt: skip
     assert count > 100
     for cap in (0, 1, count // 2, count - 1, count, count + 1, 10 * count):
-        path, expansions = _both(spec, arrays, 0, (0,), start, 0, goal, set(), ok, h, 12, True,
-                                 DELTAS, cap)  # fmt: skip
+        path, expansions = _both(spec, arrays, 0, (0,), start, 0, goal, set(), site, ok, h, 12,
+                                 True, cap)  # fmt: skip
         if cap < count:
             assert path is None and expansions == cap + 1
     assert path is not None and len(path) - 1 == 12  # free from 11: entered at 12
@@ -221,8 +255,8 @@ def test_a_goal_held_up_to_the_time_cap_fails_at_once(held_until, arrival):
     if held_until is not None:
         for table in (spec, arrays):
             table.hold([goal], 0, held_until, 9)
-    path, expansions = _both(spec, arrays, 0, (0,), start, 0, goal, set(), ok, h, 8, True,
-                             DELTAS)  # fmt: skip
+    path, expansions = _both(spec, arrays, 0, (0,), start, 0, goal, set(), _site(free), ok, h,
+                             8, True)  # fmt: skip
     if arrival is None:
         assert path is None and expansions == 0
     else:
@@ -266,8 +300,23 @@ def test_searches_on_shipped_sites_are_the_specification(site, seed, rounds):
     T = sim.state.step_count
     spec = ReservationTable.of_plans(sim, carrier.plans, T)
     arrays = ReservationArrays.of_plans(sim, carrier.plans, T)
-    shapes, deltas = ShapeCache(sim), sim.site.move_delta
+    shapes, deltas = ShapeCache(sim.site), sim.site.move_delta
     zones = [-1] if sim.site.reach is None else list(range(n))
+
+    def fields(rel, goal, zone):
+        """The specification's fit and distances as whole arrays: the base free but for
+        components in transit, and breadth-first moves around walls and placed components."""
+        st = sim.state
+        transit = [j for c in range(len(st.status)) if st.status[c] == Status.IN_TRANSIT
+                   for j in st.cells[c]]  # fmt: skip
+        placed = [j for c in range(len(st.status)) if st.status[c] >= Status.ARRIVED
+                  for j in st.cells[c]]  # fmt: skip
+        base, field = st.occ == FREE, sim.site.static != WALL
+        base[transit], field[placed] = True, False
+        reach = shapes.reach(rel, zone)
+        ok = fits_everywhere(base, rel) & reach
+        return ok, breadth_first(fits_everywhere(field, rel) & reach, [goal], deltas)
+
     for comp in sim.claimable_components():  # claims: from the pick-up pose, lifted
         pick = sim.state.pickup[comp]
         rel = tuple(j - pick[0] for j in pick)
@@ -276,16 +325,16 @@ def test_searches_on_shipped_sites_are_the_specification(site, seed, rounds):
             if goal is None:
                 continue
             zone = zones[(comp + target) % len(zones)]
-            ok, h = shapes.base_ok(sim, rel, zone), shapes.heuristic(sim, rel, goal, zone)
-            placed = shapes._placed_fit(sim, rel, zone)
-            assert np.array_equal(h, breadth_first(placed, [goal], deltas))
+            ok, h = fields(rel, goal, zone)
             stops = carrier._stops(comp, rel, target)
-            _both(spec, arrays, comp, rel, pick[0], T + 1, goal, stops, ok, h, 40, True, deltas)
+            _both(spec, arrays, comp, rel, pick[0], T + 1, goal, stops,
+                  shapes.site_inputs(sim, rel, zone), ok, h, 40, True)  # fmt: skip
     for comp, plan in carrier.plans.items():  # components in transit: from where they are
         if plan.claim:
             continue
         rel = shape_of(sim, comp)
         goal, start = plan.positions[-1], sim.state.cells[comp][0]
-        ok, h = shapes.base_ok(sim, rel), shapes.heuristic(sim, rel, goal)
+        ok, h = fields(rel, goal, -1)
         stops = carrier._stops(comp, rel, plan.target)
-        _both(spec, arrays, comp, rel, start, T, goal, stops, ok, h, 40, False, deltas)
+        _both(spec, arrays, comp, rel, start, T, goal, stops, shapes.site_inputs(sim, rel, -1),
+              ok, h, 40, False)  # fmt: skip
