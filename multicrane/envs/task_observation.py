@@ -189,20 +189,18 @@ class TaskObserver:
         """One flat observation per crane, in crane order (the rows of one array)."""
         sim, book = self.sim, self.book
         if self._episode is None:
-            self._episode = _EpisodeColumns.of(book, self.D, self._task_base)
+            self._start_episode()
         comp = self._component_rows()
         cranes = self._crane_rows()
         N, P = sim.n_cranes, len(book.tasks)
         masks = book.masks()
         if self.planes is not None:
             self.planes.update(sim.take_changed(), sim.claimable_components())
-        out = np.empty((N, self._size), dtype=np.float32)
+        out = self._template.copy()  # the tasks tables but "allowed", the "self" flags
         at = comp.size + cranes.size
         out[:, : comp.size] = comp.ravel()
-        out[:, comp.size : at] = cranes.ravel()
-        out[np.arange(N), comp.size + np.arange(N) * cranes.shape[1]] = 1.0  # self
+        out[:, comp.size : at] += cranes.ravel()  # (the template holds only the "self" flags)
         tasks = out[:, at : at + self._task_base.size].reshape(N, P, len(TASK_FEATURES))
-        tasks[:] = self._episode.tasks
         tasks[:, :, 8] = masks[:, 1:]
         at += self._task_base.size
         if self.layout.events is not None:
@@ -215,6 +213,22 @@ class TaskObserver:
         self.masks = masks
         return list(out)
 
+    def _start_episode(self) -> None:
+        """The episode's columns (``_EpisodeColumns``), an observation template holding them
+        and each crane's "self" flag, and the cell poses seen so far (none)."""
+        book, N = self.book, self.sim.n_cranes
+        self._episode = _EpisodeColumns.of(book, self.D, self._task_base)
+        n_comp = len(COMPONENT_FEATURES) + N + (self.layout.events is not None)
+        n_crane = len(CRANE_FEATURES) + (self.layout.events is not None)
+        comp_size = self.sim.site.n_components * n_comp
+        self._template = np.zeros((N, self._size), dtype=np.float32)
+        self._template[np.arange(N), comp_size + np.arange(N) * n_crane] = 1.0  # self
+        at = comp_size + N * n_crane
+        self._template[:, at : at + self._task_base.size] = self._episode.tasks.reshape(N, -1)
+        C = self.sim.site.n_components
+        self._first, self._last = np.full(C, -1, np.int64), np.full(C, -1, np.int64)
+        self._seen: list = [None] * C  # the cell list each pose was read from
+
     def _component_rows(self) -> np.ndarray:
         """The ``components`` table, shared by every crane (``component_rows_kernel``)."""
         sim, book = self.sim, self.book
@@ -222,12 +236,12 @@ class TaskObserver:
         C, N = sim.site.n_components, sim.n_cranes
         events = self.layout.events is not None
         comp = np.zeros((C, len(COMPONENT_FEATURES) + N + events), dtype=np.float32)
-        first = np.full(C, -1, dtype=np.int64)
-        last = np.full(C, -1, dtype=np.int64)
-        for c in range(C):
-            cells = st.cells[c] or st.pickup[c]
-            if cells:
-                first[c], last[c] = cells[0], cells[-1]
+        first, last, seen = self._first, self._last, self._seen
+        for c, now in enumerate(st.cells):  # a move gives a component a new list, never edits
+            if now is not seen[c]:
+                seen[c] = now
+                cells = now or st.pickup[c]
+                first[c], last[c] = (cells[0], cells[-1]) if cells else (-1, -1)
         taken = [book.tasks.comp[p] for p in book.task if p != NOBODY]
         component_rows_kernel(
             comp, st.status, first, last, self._coords, self._beam, self._targets,
