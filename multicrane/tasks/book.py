@@ -196,11 +196,14 @@ class TaskBook:
         self._open_kept = (key, list(claimable), ok)
         return ok
 
-    def allowed(self) -> np.ndarray:
-        """(N, P) bool: the tasks each crane could take now were it idle."""
-        ok = self.static_ok & self._open_pairs()[None, :]
+    def allowed(self, cranes: list[int] | None = None) -> np.ndarray:
+        """(N, P) bool: the tasks each crane could take now were it idle; the rows of
+        ``cranes`` only, in that order, when given."""
+        if cranes is None:
+            cranes = list(range(self.sim.n_cranes))
+        ok = self.static_ok[cranes] & self._open_pairs()
         if self.sim.schedule is not None:
-            ok[[not self.sim.crane_up(k) for k in range(self.sim.n_cranes)]] = False
+            ok[[not self.sim.crane_up(k) for k in cranes]] = False
         return ok
 
     def allows(self, crane: int, p: int) -> bool:
@@ -223,9 +226,7 @@ class TaskBook:
         masks[:, 0] = 1
         idle = self.idle_cranes()
         if idle:
-            allowed = self.allowed()
-            for k in idle:
-                masks[k, 1:] = allowed[k]
+            masks[idle, 1:] = self.allowed(idle)
         return masks
 
     def any_open(self) -> bool:
