@@ -23,7 +23,7 @@ from multicrane.sim.simulator import Simulator
 from multicrane.sim.site import Site
 from multicrane.tasks.distance_oracle import fits_base, lazy_distances
 
-_ORACLE_BYTES = 64 << 20  # the oracles kept hold about this much at most (16 a position)
+_ORACLE_BYTES = 32 << 20  # the oracles kept hold about this much at most (16 a position)
 
 
 class ShapeCache:
