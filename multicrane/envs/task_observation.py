@@ -218,9 +218,9 @@ class TaskObserver:
         and each crane's "self" flag, and the cell poses seen so far (none)."""
         book, N = self.book, self.sim.n_cranes
         self._episode = _EpisodeColumns.of(book, self.D, self._task_base)
-        n_comp = len(COMPONENT_FEATURES) + N + (self.layout.events is not None)
-        n_crane = len(CRANE_FEATURES) + (self.layout.events is not None)
-        comp_size = self.sim.site.n_components * n_comp
+        shapes = dict(self.layout.blocks())
+        comp_size = int(np.prod(shapes["components"]))
+        n_crane = shapes["cranes"][1]
         self._template = np.zeros((N, self._size), dtype=np.float32)
         self._template[np.arange(N), comp_size + np.arange(N) * n_crane] = 1.0  # self
         at = comp_size + N * n_crane

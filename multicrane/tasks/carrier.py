@@ -60,7 +60,6 @@ class Carrier:
         self.max_expansions = max_expansions
         self.stats = dict.fromkeys(STAT_NAMES, 0)
         self._move_of = {d: m for m, d in enumerate(sim.site.move_delta)}
-        self._deltas = np.asarray(sim.site.move_delta, dtype=np.int64)
         self.goals = GoalPoses(sim.site)  # the goal pose per (shape, target)
         self.shapes = ShapeCache(sim.site)  # base, reach and distance oracles of the searches
         self._pickups: list | None = None  # the pick-up poses ``_distances`` belong to

@@ -171,7 +171,7 @@ class EventCarrier(Carrier):
         here = [start + r for r in rel]
         if res.conflict(here, T + 1, INF, comp):
             return None
-        for d in self._deltas.tolist():
+        for d in self.shapes.deltas.tolist():
             q = start + d
             if (self.shapes.fits(sim, rel, zone, q) and q not in stops
                     and not res.conflict([q + r for r in rel], T, T + 2, comp)):

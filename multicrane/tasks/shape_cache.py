@@ -74,10 +74,9 @@ class ShapeCache:
         if oracle is not None:
             kept.move_to_end(key)
             return oracle
-        oracle = lazy_distances(
-            st.occ, st.status, self.site.static, self.reach(rel, zone),
-            np.asarray(rel, dtype=np.int64), self.coords, start, goal,
-        )  # fmt: skip
+        occ, status, static, reach, coords, _ = self.site_inputs(sim, rel, zone)
+        rel_a = np.asarray(rel, dtype=np.int64)
+        oracle = lazy_distances(occ, status, static, reach, rel_a, coords, start, goal)
         kept[key] = oracle
         if len(kept) > self.capacity:
             kept.popitem(last=False)
