@@ -321,11 +321,9 @@ class MultiCraneEnv(ParallelEnv):
         obs, masks = self.mode.observe()
         self._observed = True
         self._masks = masks
-        # The global state is built when asked for: at the motion level from the observer,
-        # which rebuilds the rows it last returned (the caller may have changed them).
-        self._state_due = not self.mode.task_level
-        if not self._state_due:
-            np.concatenate(obs, out=self._state)
+        # The global state is built when asked for, by the observer, which rebuilds the rows
+        # it last returned (the caller may have changed them).
+        self._state_due = True
         self._shown = handed_out(self._masks)
         if self.obs_format == "flat":
             return dict(zip(self.possible_agents, obs, strict=True))
@@ -362,7 +360,7 @@ class MultiCraneEnv(ParallelEnv):
         if not self._observed:
             self._observe()
         if self._state_due:
-            np.concatenate(self.observer.last_rows(), out=self._state)
+            self.observer.last_rows(out=self._state.reshape(len(self.possible_agents), -1))
             self._state_due = False
         return self._state.copy()
 

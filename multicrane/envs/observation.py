@@ -272,12 +272,13 @@ class Observer:
         self._last_own = [self._own_entries(crane) for crane in range(self.sim.n_cranes)]
         return self.last_rows()
 
-    def last_rows(self) -> np.ndarray:
-        """The rows ``observe_all`` last returned, built again as a fresh array (equal to them
-        as they were returned, until the next ``update``: the template and each crane's own
-        entries as then computed)."""
+    def last_rows(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The rows ``observe_all`` last returned, built again (into ``out`` when given, else
+        a fresh array; equal to them as they were returned, until the next ``update``: the
+        template and each crane's own entries as then computed)."""
         size = self.layout.size
-        out = np.empty((len(self._last_own), size), dtype=np.float32)
+        if out is None:
+            out = np.empty((len(self._last_own), size), dtype=np.float32)
         out[:] = self.template
         flat = memoryview(out.reshape(-1))
         for crane, own in enumerate(self._last_own):

@@ -186,32 +186,45 @@ class TaskObserver:
         return (closed * z).max(axis=2).reshape(-1)
 
     def observe_all(self) -> list[np.ndarray]:
-        """One flat observation per crane, in crane order (the rows of one array)."""
+        """One flat observation per crane, in crane order (the rows of one fresh array)."""
         sim, book = self.sim, self.book
         if self._episode is None:
             self._start_episode()
         comp = self._component_rows()
         cranes = self._crane_rows()
-        N, P = sim.n_cranes, len(book.tasks)
         masks = book.masks()
+        closed = self._closed_plan() if self.layout.events is not None else None
+        planes = None
         if self.planes is not None:
             self.planes.update(sim.take_changed(), sim.claimable_components())
-        out = self._template.copy()  # the tasks tables but "allowed", the "self" flags
+            planes = [self._site_planes(k) for k in range(sim.n_cranes)]
+        self._read = (comp, cranes, masks, book.idle_cranes(), closed, planes)
+        self.masks = masks
+        return list(self.last_rows())
+
+    def last_rows(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The rows ``observe_all`` last returned, built again (into ``out`` when given,
+        else a fresh array) from what it read, as they were returned."""
+        comp, cranes, masks, idle, closed, planes = self._read
+        N, P = self.sim.n_cranes, len(self.book.tasks)
+        if out is None:
+            out = self._template.copy()  # the tasks tables but "allowed", the "self" flags
+        else:
+            out[:] = self._template
         at = comp.size + cranes.size
         out[:, : comp.size] = comp.ravel()
         out[:, comp.size : at] += cranes.ravel()  # (the template holds only the "self" flags)
         tasks = out[:, at : at + self._task_base.size].reshape(N, P, len(TASK_FEATURES))
-        tasks[:, :, 8] = masks[:, 1:]
+        if idle:  # a busy crane's row allows nothing: the template's zeros
+            tasks[idle, :, 8] = masks[idle, 1:]
         at += self._task_base.size
-        if self.layout.events is not None:
-            closed = self._closed_plan()
+        if closed is not None:
             out[:, at : at + closed.size] = closed
             at += closed.size
-        if self.planes is not None:
+        if planes is not None:
             for k in range(N):
-                out[k, at:] = self._site_planes(k)
-        self.masks = masks
-        return list(out)
+                out[k, at:] = planes[k]
+        return out
 
     def _start_episode(self) -> None:
         """The episode's columns (``_EpisodeColumns``), an observation template holding them

@@ -132,19 +132,29 @@ def test_split_rewards_add_up_to_the_team_reward(decisions):
         multicrane.parallel_env("e2s2", reward_mode="once")
 
 
-@pytest.mark.parametrize("decisions", ["motion", "task"])
-def test_state_is_every_observation_concatenated(decisions):
-    env = multicrane.parallel_env("e3s2", n_cranes=2, decisions=decisions)
+@pytest.mark.parametrize(
+    ("decisions", "options"),
+    [("motion", {}), ("task", {}), ("task", {"task_site_planes": True, "events": "high"})],
+    ids=["motion", "task", "task-planes-events"],
+)
+def test_state_is_every_observation_concatenated(decisions, options):
+    env = multicrane.parallel_env("e3s2", n_cranes=2, decisions=decisions, **options)
     with pytest.raises(RuntimeError, match="reset"):
         env.state()
     obs, _ = env.reset(seed=2)
     rng = np.random.default_rng(2)
-    for _ in range(10):
+    for t in range(40):
+        want = np.concatenate([obs[a]["observation"] for a in env.possible_agents])
+        if t % 2:  # the caller writes into its observations: the state is the env's own
+            for a in env.possible_agents:
+                obs[a]["observation"][:] = 0.5
         s = env.state()
         assert env.state_space.contains(s)
-        want = np.concatenate([obs[a]["observation"] for a in env.possible_agents])
-        assert np.array_equal(s, want)
+        assert np.array_equal(s, want), f"step {t}"
         s[:] = 7  # a copy: the caller cannot change the environment's state
+        assert np.array_equal(env.state(), want)
+        if not env.agents:
+            break
         obs, *_ = env.step(random_masked_actions(obs, rng))
 
 
