@@ -98,7 +98,9 @@ def _episode_ranking(carrier: Carrier, rank: str, list_rank: dict) -> tuple[np.n
     comp, targets = np.nonzero(dist >= 0)
     d = dist[comp, targets]
     if rank in ("list", "chain"):
-        keys = [targets, d, np.array([list_rank[c] for c in comp.tolist()], dtype=np.int64)]
+        by_comp = np.zeros(dist.shape[0], dtype=np.int64)
+        by_comp[list(list_rank)] = list(list_rank.values())
+        keys = [targets, d, by_comp[comp]]
         if rank == "chain":
             keys.append(-site_chains(carrier.sim.site)[0][targets])
         order = np.lexsort(keys)

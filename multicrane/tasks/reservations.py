@@ -180,6 +180,8 @@ class GoalPoses(dict):
     def __init__(self, site):
         super().__init__()
         self.site = site
+        self._rows: dict[tuple[int, ...], np.ndarray] = {}  # goal positions per shape
+        self._table: np.ndarray | None = None  # site.compatible as a table
 
     def __missing__(self, key: tuple[tuple[int, ...], int]) -> int | None:
         rel, target = key
@@ -192,16 +194,41 @@ class GoalPoses(dict):
         of its shape covers the target (or the target is not compatible)."""
         site = self.site
         dist = np.full((site.n_components, len(site.target_cells)), -1, dtype=np.int64)
-        for comp, targets in enumerate(site.compatible):
-            pick = pickup[comp]
-            if not pick:
-                continue
-            rel = tuple(j - pick[0] for j in pick)
-            for t in targets:
-                goal = self[rel, t]
-                if goal is not None:
-                    dist[comp, t] = manhattan(site.cell(pick[0]), site.cell(goal))
+        by_shape: dict[tuple[int, ...], list[int]] = {}
+        for comp, pick in enumerate(pickup):
+            if pick:
+                by_shape.setdefault(tuple(j - pick[0] for j in pick), []).append(comp)
+        for rel, comps in by_shape.items():
+            goals = self._goal_row(rel)
+            ok = self._compatible()[comps] & (goals >= 0)
+            starts = self._xyz([pickup[c][0] for c in comps])
+            ends = self._xyz(np.maximum(goals, 0))
+            d = np.abs(starts[:, None, :] - ends[None]).sum(axis=2)
+            dist[comps] = np.where(ok, d, -1)
         return dist
+
+    def _goal_row(self, rel: tuple[int, ...]) -> np.ndarray:
+        """(targets,) int64: the shape's goal position on each target, -1 where none."""
+        row = self._rows.get(rel)
+        if row is None:
+            goals = (self[rel, t] for t in range(len(self.site.target_cells)))
+            row = np.array([-1 if g is None else g for g in goals], dtype=np.int64)
+            self._rows[rel] = row
+        return row
+
+    def _compatible(self) -> np.ndarray:
+        """(components, targets) bool: ``site.compatible`` as a table."""
+        if self._table is None:
+            site = self.site
+            self._table = np.zeros((site.n_components, len(site.target_cells)), dtype=bool)
+            for comp, targets in enumerate(site.compatible):
+                self._table[comp, list(targets)] = True
+        return self._table
+
+    def _xyz(self, cells: list[int] | np.ndarray) -> np.ndarray:
+        """(len(cells), 3) int64: the cells' padded grid coordinates (``Site.cell`` + 1: the
+        same differences)."""
+        return np.stack(np.unravel_index(cells, self.site.shape), axis=1).astype(np.int64)
 
 
 def stop_poses(

@@ -88,6 +88,37 @@ def test_the_cached_goal_poses_are_goal_position(scenario):
     assert found and missing  # both answers were checked
 
 
+@pytest.mark.parametrize("scenario", ["hall-4c", "e4s4", "precast-house", "towers-3c"])
+def test_pair_distances_match_the_loop_over_compatible_targets(scenario):
+    """``GoalPoses.pair_distances`` (by shape, in numpy) against the loop it replaced: per
+    component with a pick-up pose and compatible target with a goal pose, the Manhattan
+    distance between the two poses' first cells; -1 everywhere else. Drawn yards, a pick-up
+    pose taken away (a pre-built component has none) and one cut to its first cell (a shape
+    that covers none of its compatible targets)."""
+    env = multicrane.parallel_env(scenario, decisions="task")
+    poses = None
+    for seed in (0, 5):
+        env.reset(seed=seed)
+        site = env.sim.site
+        pickup = [list(p) for p in env.sim.state.pickup]
+        pickup[0] = []
+        cut = next(c for c, pick in enumerate(pickup) if len(pick) > 1)
+        pickup[cut] = pickup[cut][:1]
+        poses = poses or GoalPoses(site)  # kept across episodes, as the carrier's
+        expected = np.full((site.n_components, len(site.target_cells)), -1, dtype=np.int64)
+        for c, pick in enumerate(pickup):
+            rel = tuple(j - pick[0] for j in pick) if pick else ()
+            for t in site.compatible[c] if pick else ():
+                goal = goal_position(rel, site.target_cells[t])
+                if goal is not None:
+                    a, b = site.cell(pick[0]), site.cell(goal)
+                    expected[c, t] = sum(abs(x - y) for x, y in zip(a, b, strict=True))
+        got = poses.pair_distances(pickup)
+        assert got.dtype == np.int64 and np.array_equal(got, expected)
+        assert (expected >= 0).sum() > 1 and (expected[0] == -1).all()
+        assert site.compatible[cut] and (expected[cut] == -1).all()
+
+
 @pytest.mark.parametrize(("longest", "dtype"), [(7, np.int16), (32767, np.int16),
                                                 (32768, np.int32), (10**6, np.int32)])  # fmt: skip
 def test_distance_fields_are_kept_small_only_when_every_distance_fits(longest, dtype):
