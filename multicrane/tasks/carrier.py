@@ -35,8 +35,9 @@ import numpy as np
 
 from multicrane.core.codes import ASSEMBLE, CLAIM_BASE, WAIT, Status
 from multicrane.sim.simulator import NOBODY, Simulator
+from multicrane.tasks.goal_poses import GoalPoses, manhattan
 from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
-from multicrane.tasks.reservations import INF, GoalPoses, Plan, manhattan, shape_of, stop_poses
+from multicrane.tasks.reservations import INF, Plan, shape_of, stop_poses
 from multicrane.tasks.search_memo import SearchMemo, remembered
 from multicrane.tasks.shape_cache import ShapeCache
 

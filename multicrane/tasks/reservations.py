@@ -41,10 +41,9 @@ from __future__ import annotations
 import heapq
 from dataclasses import dataclass
 
-import numpy as np
-
 from multicrane.core.codes import Status
 from multicrane.sim.simulator import NOBODY, Simulator
+from multicrane.tasks.goal_poses import GoalPoses
 
 INF = 1 << 40  # "for ever" in the reservation table
 _INITIAL, _IN_TRANSIT, _ARRIVED = int(Status.INITIAL), int(Status.IN_TRANSIT), int(Status.ARRIVED)
@@ -163,74 +162,6 @@ def shape_of(sim: Simulator, comp: int) -> tuple[int, ...]:
     return tuple(j - cells[0] for j in cells)
 
 
-def goal_position(rel: tuple[int, ...], target_cells: list[int]) -> int | None:
-    """The position at which a component of this shape covers the target's cells exactly."""
-    tc = sorted(target_cells)
-    srel = sorted(rel)
-    start = tc[0] - srel[0]
-    if [start + r for r in srel] == tc:
-        return start
-    return None
-
-
-class GoalPoses(dict):
-    """``goal_position`` per (shape, target) of one site, each computed once:
-    ``poses[rel, target]``."""
-
-    def __init__(self, site):
-        super().__init__()
-        self.site = site
-        self._rows: dict[tuple[int, ...], np.ndarray] = {}  # goal positions per shape
-        self._table: np.ndarray | None = None  # site.compatible as a table
-
-    def __missing__(self, key: tuple[tuple[int, ...], int]) -> int | None:
-        rel, target = key
-        goal = self[key] = goal_position(rel, self.site.target_cells[target])
-        return goal
-
-    def pair_distances(self, pickup: list[list[int]]) -> np.ndarray:
-        """(components, targets) int64: the Manhattan distance from each component's pick-up
-        pose (``pickup``, the state's) to its pose on each compatible target, -1 where no pose
-        of its shape covers the target (or the target is not compatible)."""
-        site = self.site
-        dist = np.full((site.n_components, len(site.target_cells)), -1, dtype=np.int64)
-        by_shape: dict[tuple[int, ...], list[int]] = {}
-        for comp, pick in enumerate(pickup):
-            if pick:
-                by_shape.setdefault(tuple(j - pick[0] for j in pick), []).append(comp)
-        for rel, comps in by_shape.items():
-            goals = self._goal_row(rel)
-            ok = self._compatible()[comps] & (goals >= 0)
-            starts = self._xyz([pickup[c][0] for c in comps])
-            ends = self._xyz(np.maximum(goals, 0))
-            d = np.abs(starts[:, None, :] - ends[None]).sum(axis=2)
-            dist[comps] = np.where(ok, d, -1)
-        return dist
-
-    def _goal_row(self, rel: tuple[int, ...]) -> np.ndarray:
-        """(targets,) int64: the shape's goal position on each target, -1 where none."""
-        row = self._rows.get(rel)
-        if row is None:
-            goals = (self[rel, t] for t in range(len(self.site.target_cells)))
-            row = np.array([-1 if g is None else g for g in goals], dtype=np.int64)
-            self._rows[rel] = row
-        return row
-
-    def _compatible(self) -> np.ndarray:
-        """(components, targets) bool: ``site.compatible`` as a table."""
-        if self._table is None:
-            site = self.site
-            self._table = np.zeros((site.n_components, len(site.target_cells)), dtype=bool)
-            for comp, targets in enumerate(site.compatible):
-                self._table[comp, list(targets)] = True
-        return self._table
-
-    def _xyz(self, cells: list[int] | np.ndarray) -> np.ndarray:
-        """(len(cells), 3) int64: the cells' padded grid coordinates (``Site.cell`` + 1: the
-        same differences)."""
-        return np.stack(np.unravel_index(cells, self.site.shape), axis=1).astype(np.int64)
-
-
 def stop_poses(
     sim: Simulator, comp: int, rel: tuple[int, ...], target: int, planned: set[int],
     goals: GoalPoses | None = None,
@@ -250,10 +181,6 @@ def stop_poses(
             if g is not None:
                 out.add(g)
     return out
-
-
-def manhattan(a: tuple[int, int, int], b: tuple[int, int, int]) -> int:
-    return abs(a[0] - b[0]) + abs(a[1] - b[1]) + abs(a[2] - b[2])
 
 
 def space_time_search(

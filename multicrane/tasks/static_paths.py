@@ -15,7 +15,7 @@ import numpy as np
 
 from multicrane.sim.shortest_paths import UNREACHABLE, fits_everywhere
 from multicrane.sim.simulator import FREE, Simulator
-from multicrane.tasks.reservations import GoalPoses
+from multicrane.tasks.goal_poses import GoalPoses
 
 
 class StaticPaths:

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import multicrane
 from multicrane.episodes.random_actions import random_legal_action
-from multicrane.tasks.reservations import goal_position, manhattan
+from multicrane.tasks.goal_poses import goal_position, manhattan
 from multicrane.tasks.support_graph import support_chains
 from policies.prioritized import ranked_pairs
 

@@ -23,12 +23,12 @@ from multicrane.sim.grid_search import breadth_first, fits_everywhere
 from multicrane.sim.site import FREE, WALL
 from multicrane.tasks import search_kernels
 from multicrane.tasks.distance_oracle import known_distances, lazy_distances
+from multicrane.tasks.goal_poses import goal_position
 from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
 from multicrane.tasks.reservations import (
     INF,
     ReservationTable,
     goal_free_from,
-    goal_position,
     shape_of,
     space_time_search,
 )

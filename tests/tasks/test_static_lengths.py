@@ -10,7 +10,7 @@ import pytest
 import multicrane
 from multicrane.scenario.named_sets import members
 from multicrane.sim.shortest_paths import UNREACHABLE
-from multicrane.tasks.reservations import GoalPoses, goal_position
+from multicrane.tasks.goal_poses import GoalPoses, goal_position
 from multicrane.tasks.static_paths import StaticPaths, compact
 
 
