@@ -27,8 +27,9 @@ otherwise (the A* asks thousands of times, a call costs more than the read). ``f
 the A*'s other question: does the shape fit the base (walls, obstacles, yard, placed
 components) at a position.
 
-numba caches each file's functions on their own: after editing this file, delete the caches
-of the files that call it (``multicrane/tasks/__pycache__/*.nb*``) when working in place.
+numba checks a cached kernel against its own file only; the kernels that inline these are
+recompiled after an edit here because ``multicrane.tasks`` drops the folder's caches when a
+kernel source is newer (``multicrane.core.kernel_cache``).
 """
 
 from __future__ import annotations

@@ -2,3 +2,7 @@
 
 May import: every room below it (``core`` to ``envs``).
 """
+
+from multicrane.core.kernel_cache import drop_stale_caches
+
+drop_stale_caches(__file__)  # kernels here call kernels of other files: numba checks one file

@@ -6,9 +6,9 @@ the kernels pass named tuples of a few dozen arrays to small helpers, and counti
 array in and out of every call cost more than the step itself (about 300 ns per call against
 6 ns). The price: a kernel never allocates (scratch space comes in ``PaperBuffers``); every
 array it touches is owned by Python. numba checks the cache against the source file of the
-function it compiled only: after editing a kernel that others call, delete the
-``__pycache__/*.nbi`` files of this folder. ``inlined`` kernels are also inlined into the
-kernels that call them (numba's ``inline="always"``).
+function it compiled only, so ``multicrane.vector`` drops this folder's caches when a kernel
+source is newer (``multicrane.core.kernel_cache``). ``inlined`` kernels are also inlined into
+the kernels that call them (numba's ``inline="always"``).
 """
 
 from __future__ import annotations
