@@ -89,9 +89,9 @@ class Stopwatch:
         """``fn``, appending the seconds of each call (of that call only) to ``seconds``."""
         clock, seconds = self.clock, self.seconds
 
-        def timed(*args):
+        def timed(*args, **kwargs):
             start = clock()
-            out = fn(*args)
+            out = fn(*args, **kwargs)
             seconds.append(clock() - start)
             return out
 

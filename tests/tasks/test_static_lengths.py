@@ -52,6 +52,25 @@ def test_the_reset_timing_tool_runs(capsys):
     assert out.startswith("e3s2, 2 cranes: ") and out.rstrip().endswith("3 resets")
 
 
+def test_the_round_split_tool_times_every_part_and_puts_the_methods_back(capsys):
+    """``tools/round_split.py`` (docs/performance.md, "Fourth pass") on a small site: every
+    part ran, the simulated steps inside the env's step; the timed methods are the originals
+    again afterwards."""
+    from conftest import load_tool
+
+    from multicrane.envs.task_mode import TaskMode
+
+    tool = load_tool("round_split")
+    step = TaskMode.step
+    parts = {label.strip(): (us, n) for label, us, n in tool.split("e3s2", 2, 40, "random")}
+    assert TaskMode.step is step
+    assert all(us > 0 and n > 0 for us, n in parts.values())
+    assert parts["task mode: simulated steps"][0] < parts["env.step"][0]
+    assert parts["Simulator.step"][1] >= 1  # at least one simulated step a round
+    tool.main(["e3s2", "--cranes", "2", "--rounds", "20"])
+    assert "planner's call" in capsys.readouterr().out
+
+
 def test_the_first_decision_timing_tool_runs(capsys):
     """``tools/first_decision.py`` (docs/performance.md, "Planning on large sites") on a
     held-out member with the guarded search, and an unknown member named."""
