@@ -23,7 +23,7 @@ from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.envs.task_mode import TaskMode
 from multicrane.episodes.rollout import Stopwatch, play_seeds
 from multicrane.sim.simulator import Simulator
-from multicrane.tasks import carrier
+from multicrane.tasks import carrier_planning
 from multicrane.tasks.book import TaskBook
 
 _PARTS = [  # (label, owner, attribute): timed where they are looked up
@@ -35,7 +35,7 @@ _PARTS = [  # (label, owner, attribute): timed where they are looked up
     ("    TaskBook.any_open", TaskBook, "any_open"),
     ("    step reward", motion_mode.reward_rules, "step_reward"),
     ("  task mode: observation, masks", TaskMode, "observe"),
-    ("space-time search (compiled)", carrier, "compiled_search"),
+    ("space-time search (compiled)", carrier_planning, "compiled_search"),
 ]
 
 
