@@ -41,7 +41,7 @@ import numpy as np
 import torch as th
 
 from multicrane.files import write_atomic, write_new_atomic
-from multicrane.tasks.book import exclusive_masks, task_list
+from multicrane.tasks.task_list import exclusive_masks, task_list
 from multicrane.training import soft_targets
 
 DEMO_STREAM = 2  # the demonstration copies' seed stream: [run seed, DEMO_STREAM]

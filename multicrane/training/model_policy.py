@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from multicrane.tasks.book import exclusive_round, task_list
+from multicrane.tasks.task_list import exclusive_round, task_list
 from multicrane.training.algorithms import algorithm
 from multicrane.training.config import CHECKPOINT, TrainConfig
 from multicrane.training.set_policy import BLOCKED

@@ -9,7 +9,7 @@ import pytest
 
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.envs.infos import TASK_EVENTS
-from multicrane.tasks.book import exclusive_masks
+from multicrane.tasks.task_list import exclusive_masks
 from multicrane.training.model_policy import exclusive_actions
 
 

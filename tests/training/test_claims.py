@@ -11,7 +11,7 @@ from conftest import one_torch_thread  # noqa: F401 (fixture)
 import multicrane
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.scenario.named_sets import resolve_set
-from multicrane.tasks.book import exclusive_round, task_list
+from multicrane.tasks.task_list import exclusive_round, task_list
 from multicrane.training import TrainConfig
 from multicrane.training.claims import claim_in_turn
 from multicrane.training.set_obs import SetLimits

@@ -12,7 +12,7 @@ from conftest import one_torch_thread  # noqa: F401 (fixture)
 
 import policies
 from multicrane.envs.crane_env import MultiCraneEnv
-from multicrane.tasks.book import exclusive_masks, task_list
+from multicrane.tasks.task_list import exclusive_masks, task_list
 from multicrane.training import ConfigError, TrainConfig, train
 from multicrane.training.dagger import PaddedLearner, merge, rounds_file
 from multicrane.training.expert_iteration import PolicyPlanner, guided_teacher
