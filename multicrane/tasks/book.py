@@ -1,9 +1,10 @@
 """Task-level decisions: the task list, the task masks, and each crane's task until it is done.
 
 A *task* is a (component, compatible target) pair of the scenario; ``TaskList``
-(``multicrane.tasks.task_list``) numbers them component-major (component 0's targets first, each in target order). The task-level
-environment (``MultiCraneEnv(decisions="task")``) gives each crane the actions ``0`` (wait;
-for a busy crane: continue) and ``1 + p`` (take task ``p``).
+(``multicrane.tasks.task_list``) numbers them component-major (component 0's targets first,
+each in target order). The task-level environment (``MultiCraneEnv(decisions="task")``)
+gives each crane the actions ``0`` (wait; for a busy crane: continue) and ``1 + p`` (take
+task ``p``).
 
 **Masks** (``TaskBook.masks``). A busy crane may only continue (``0``). For an idle crane task
 ``p = (c, t)`` is allowed iff component ``c`` is claimable now (initial, not claimed, its
