@@ -16,8 +16,9 @@ One decision round at simulator time ``T``:
     joint = carrier.actions(T)              # one motion action per crane
 
 **Reach.** A crane carries a component only inside its zone (``Site.reach``): every pose of
-the path, the pick-up pose and the target must lie in it (the search's fit mask is AND-ed
-with ``fits_everywhere(zone, shape)``). Without reach every crane reaches everywhere.
+the path, the pick-up pose and the target must lie in it (a search reads where the shape
+lies wholly in the zone: ``ShapeCache.reach``, ``fits_everywhere(zone, shape)``). Without
+reach every crane reaches everywhere.
 
 **Checks and repairs** (``begin``). Each round checks that every component is where its
 plan says. If one is not (an arrival the plan did not foresee, a claim that failed; neither

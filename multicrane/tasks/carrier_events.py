@@ -24,8 +24,9 @@ round:
   is dropped and all are planned again in priority order (the carrier's full replan), since
   the plans around the frozen components and the closed cells are no longer valid.
 - **Delivery.** A delivered component becomes claimable through the simulator and is planned
-  like any other; the search's cached fit mask is rebuilt, since the component now fills cells,
-  and if a plan's path crosses the cells it appeared in, every plan in transit is replanned.
+  like any other (a search reads the site's cells as they are now, so it sees the cells the
+  component fills), and if a plan's path crosses the cells it appeared in, every plan in
+  transit is replanned.
 
 A component that a breakdown stopped on the pose of a target that was not ready then does not
 arrive when the target becomes ready (arrival happens on a move): it is planned one step out
