@@ -144,12 +144,8 @@ class EventCarrier(Carrier):
         return planned
 
     def _plan_transit_now(self, comp: int, T: int, res: ReservationArrays) -> bool:
-        sim = self.sim
-        rel = shape_of(sim, comp)
-        start = sim.state.cells[comp][0]
-        crane = int(sim.state.holder[comp])
-        taken = self.taken_targets()
-        for t in sim.ready_targets(comp):
+        rel, start, crane, taken = self._in_transit(comp)
+        for t in self.sim.ready_targets(comp):
             if t in taken or self.goals[rel, t] != start:
                 continue
             # A breakdown stopped it on this target's pose before the target was ready: it

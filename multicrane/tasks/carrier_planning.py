@@ -67,13 +67,16 @@ class CarrierPlanning:
             self.stats["failed"] += 1
         return path
 
+    def _in_transit(self, comp: int) -> tuple[tuple[int, ...], int, int, set[int]]:
+        """A component in transit: its shape, its position, its crane and the targets taken."""
+        st = self.sim.state
+        rel = shape_of(self.sim, comp)
+        return rel, st.cells[comp][0], int(st.holder[comp]), self.taken_targets()
+
     def _plan_transit(self, comp: int, T: int, res: ReservationArrays) -> bool:
         """Plan a component in transit from where it is; reserve the plan on success."""
         sim = self.sim
-        rel = shape_of(sim, comp)
-        start = sim.state.cells[comp][0]
-        crane = int(sim.state.holder[comp])
-        taken = self.taken_targets()
+        rel, start, crane, taken = self._in_transit(comp)
         here = sim.site.cell(start)
         options = []
         for t in sim.ready_targets(comp):
