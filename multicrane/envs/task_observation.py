@@ -161,12 +161,8 @@ class TaskObserver:
 
     def _cell_coordinates(self) -> np.ndarray:
         """(cells, 3) float32: each linear index's site cell (``Site.cell``) / the site size."""
-        site = self.sim.site
-        sx, sy = site.lin(1, 0, 0) - site.lin(0, 0, 0), site.lin(0, 1, 0) - site.lin(0, 0, 0)
-        px, rest = np.divmod(np.arange(site.static.size), sx)
-        py, z = np.divmod(rest, sy)
-        cells = np.stack([px - 1, py - 1, z], axis=1).astype(np.float32)
-        return cells / self.scale
+        cells = self.sim.site.grid_coords() - np.array([1, 1, 0])  # padded -> site cells
+        return cells.astype(np.float32) / self.scale
 
     def _nodes(self, cells: list[int]) -> np.ndarray:
         """Node 1 and node 2 (x, y, z each, divided by the site size) of a pose's cells."""

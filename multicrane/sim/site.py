@@ -104,6 +104,13 @@ class Site:
         py, z = divmod(rest, self._sy)
         return (px - 1, py - 1, z)
 
+    def grid_coords(self, cells=None) -> np.ndarray:
+        """(len(cells), 3) int64: the padded grid coordinates of linear indices (every cell's
+        when ``cells`` is None): ``Site.cell`` + (1, 1, 0), so differences are the same."""
+        if cells is None:
+            cells = np.arange(self.size)
+        return np.stack(np.unravel_index(cells, self.shape), axis=1).astype(np.int64)
+
     def lin_pose(self, pose: geometry.Pose) -> list[int]:
         """The linear indices of a pose's cells, from node 1 to node 2."""
         return [self.lin(*c) for c in geometry.pose_cells(*pose)]

@@ -51,8 +51,8 @@ class GoalPoses(dict):
         for rel, comps in by_shape.items():
             goals = self._goal_row(rel)
             ok = self._compatible()[comps] & (goals >= 0)
-            starts = self._xyz([pickup[c][0] for c in comps])
-            ends = self._xyz(np.maximum(goals, 0))
+            starts = site.grid_coords([pickup[c][0] for c in comps])
+            ends = site.grid_coords(np.maximum(goals, 0))
             d = np.abs(starts[:, None, :] - ends[None]).sum(axis=2)
             dist[comps] = np.where(ok, d, -1)
         return dist
@@ -74,11 +74,6 @@ class GoalPoses(dict):
             for comp, targets in enumerate(site.compatible):
                 self._table[comp, list(targets)] = True
         return self._table
-
-    def _xyz(self, cells: list[int] | np.ndarray) -> np.ndarray:
-        """(len(cells), 3) int64: the cells' padded grid coordinates (``Site.cell`` + 1: the
-        same differences)."""
-        return np.stack(np.unravel_index(cells, self.site.shape), axis=1).astype(np.int64)
 
 
 def manhattan(a: tuple[int, int, int], b: tuple[int, int, int]) -> int:

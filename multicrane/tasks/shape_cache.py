@@ -31,8 +31,7 @@ class ShapeCache:
 
     def __init__(self, site: Site):
         self.site = site
-        cells = np.unravel_index(np.arange(site.size), site.shape)
-        self.coords = np.stack(cells, axis=1).astype(np.int32).ravel()  # x, y, z of p at 3p
+        self.coords = site.grid_coords().astype(np.int32).ravel()  # x, y, z of p at 3p
         self.deltas = np.asarray(site.move_delta, dtype=np.int64)
         self._reach: dict[tuple, np.ndarray] = {}
         self._everywhere = np.ones(site.size, dtype=np.bool_)  # the reach without limits

@@ -437,3 +437,19 @@ def test_move_limit_cost_starts_with_the_16th_move():
         rewards.append(r["crane_0"])
     assert rewards[:15] == [-1.0] * 15
     assert rewards[15:] == [-2.0] * 3
+
+
+@pytest.mark.parametrize("name", ["e3s2", "hall-4c"])
+def test_grid_coords_are_the_cells_of_every_linear_index(name):
+    """``Site.grid_coords``: every linear index's ``Site.cell`` shifted by (1, 1, 0) (the
+    padding), whole or for given indices, and ``lin`` of it gives the index back."""
+    import multicrane
+
+    site = Simulator(multicrane.load_scenario(name)).site
+    every = site.grid_coords()
+    assert every.shape == (site.size, 3) and every.dtype == np.int64
+    expected = np.array([site.cell(j) for j in range(site.size)]) + (1, 1, 0)
+    assert np.array_equal(every, expected)
+    some = [0, 7, site.size - 1]
+    assert np.array_equal(site.grid_coords(some), expected[some])
+    assert all(site.lin(*(every[j] - (1, 1, 0))) == j for j in range(0, site.size, 97))
