@@ -258,7 +258,7 @@ class TaskObserver:
             np.asarray(sim.claimable_components(), dtype=np.int64),
             np.asarray(taken, dtype=np.int64), st.filled_by == NOBODY, book.tasks.comp,
             book.tasks.target, self._episode.pair_len, self._episode.reach, self.D, events,
-            np.asarray(st.delivered, dtype=np.bool_),
+            np.asarray(st.delivered, dtype=np.bool_), np.empty(C),
         )  # fmt: skip
         return comp
 

@@ -16,17 +16,17 @@ import numpy as np
 _INITIAL = 0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, _nrt=False)
 def component_rows_kernel(
     comp, status, first, last, coords, beam, targets, target_ready, claimable, taken,
-    free_target, task_comp, task_target, pair_len, reach, D, events, delivered,
+    free_target, task_comp, task_target, pair_len, reach, D, events, delivered, best,
 ):  # fmt: skip
     """Fill ``comp`` (C x (21 + N + events), float32, zeroed). ``first``/``last``: each
     component's first and last cell (its pick-up pose's when initial; -1: none);
     ``claimable``/``taken``: component indices; ``pair_len``: each task's shortest static
-    path (inf: none)."""
+    path (inf: none); ``best``: scratch, C float64s (nothing here allocates)."""
     C, N = comp.shape[0], reach.shape[1]
-    best = np.full(C, np.inf)
+    best[:] = np.inf
     for p in range(task_comp.size):
         if free_target[task_target[p]] and pair_len[p] < best[task_comp[p]]:
             best[task_comp[p]] = pair_len[p]

@@ -57,12 +57,21 @@ def known_distances(h):
 @numba.njit(cache=True)
 def lazy_distances(occ, status, static, reach, rel, coords, start, goal):
     """An oracle for shape ``rel`` and ``goal``, aimed at ``start`` (module doc)."""
+    oracle = np.empty(4 * occ.size + 8, dtype=np.int32)
+    start_oracle(oracle, occ, status, static, reach, rel, coords, start, goal)
+    return oracle
+
+
+@numba.njit(cache=True, _nrt=False)
+def start_oracle(oracle, occ, status, static, reach, rel, coords, start, goal):
+    """``lazy_distances`` into ``oracle`` (``4 n + 8`` int32s, any content), allocating
+    nothing."""
     n = occ.size
-    oracle = np.empty(4 * n + 8, dtype=np.int32)
     oracle[n : 2 * n] = UNSEEN
     queue = oracle[4 * n :]
     queue[:5] = 0
-    queue[5:8] = coords[3 * start : 3 * start + 3]
+    for i in range(3):
+        queue[5 + i] = coords[3 * start + i]
     if in_field(occ, status, static, reach, rel, goal):
         oracle[goal] = 0
         oracle[n + goal] = OPEN
@@ -71,7 +80,6 @@ def lazy_distances(occ, status, static, reach, rel, coords, start, goal):
         queue[3] = _manhattan(coords, queue, goal)
     else:
         oracle[n + goal] = OUTSIDE
-    return oracle
 
 
 @numba.njit(cache=True, inline="always")

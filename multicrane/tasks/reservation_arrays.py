@@ -20,8 +20,9 @@ from multicrane.tasks.search_kernels import (
     TO,
     conflict_kernel,
     path_rows_kernel,
-    space_time_kernel,
+    space_time_search_into,
 )
+from multicrane.tasks.search_scratch import SearchScratch, grown_scratch, search_scratch
 
 
 class ReservationArrays:
@@ -97,6 +98,9 @@ class ReservationArrays:
         self.rows, self.n = other.rows.copy(), other.n
 
 
+_KEPT: dict[int, SearchScratch] = {}  # positions -> the scratch this process's searches grew
+
+
 def compiled_search(
     res: ReservationArrays,
     comp: int,
@@ -114,14 +118,21 @@ def compiled_search(
     """``reservations.space_time_search`` (same answer) on the compiled kernel: ``site`` is
     ``(occ, status, static, reach, coords, deltas)`` (``ShapeCache.site_inputs``), from which
     the kernel reads the fit (``distance_oracle.fits_base``), and ``oracle`` gives the distances
-    to the goal (``multicrane.tasks.distance_oracle``)."""
+    to the goal (``multicrane.tasks.distance_oracle``). The search runs in this process's kept
+    scratch for the grid's size, grown until it fits (``multicrane.tasks.search_scratch``)."""
     occ, status, static, reach, coords, deltas = site
     stop = np.zeros(occ.size, dtype=np.bool_)
     if stops:
         stop[list(stops)] = True
-    path, expansions = space_time_kernel(
-        res.rows, res.n, comp, np.asarray(rel, dtype=np.int64), start, t_start, goal, stop,
-        occ, status, static, reach, coords, deltas, oracle, slack, max_expansions,
-        lifted_onto_goal_arrives, INF,
-    )  # fmt: skip
-    return (path.tolist() if len(path) else None), int(expansions)
+    rel_a = np.asarray(rel, dtype=np.int64)
+    scratch = _KEPT.get(occ.size) or search_scratch(occ.size)
+    while True:
+        length, expansions = space_time_search_into(
+            res.rows, res.n, comp, rel_a, start, t_start, goal, stop, occ, status, static, reach,
+            coords, deltas, oracle, slack, max_expansions, lifted_onto_goal_arrives, INF, scratch,
+        )  # fmt: skip
+        if length >= 0:
+            break
+        scratch = grown_scratch(scratch, length, res.n)
+    _KEPT[occ.size] = scratch
+    return (scratch.path[:length].tolist() if length else None), int(expansions)

@@ -3,12 +3,14 @@
 The reservations here are flat rows ``(cell, from, to, component)`` (``ReservationArrays``,
 ``multicrane.tasks.reservation_arrays``), positions and shapes are linear indices of the padded
 grid, exactly as in ``multicrane.tasks.reservations``, whose Python ``space_time_search`` is the
-specification: ``space_time_kernel`` follows it step for step (the same heap order, so the
-same states expanded in the same order, the same path and the same count of expansions;
+specification: ``space_time_search_into`` follows it step for step (the same heap order, so
+the same states expanded in the same order, the same path and the same count of expansions;
 ``tests/tasks/test_search_kernels.py`` compares them). Where the specification reads whole fit
 and distance arrays, the kernel asks the site and a distance oracle at the positions it
-reaches (``multicrane.tasks.distance_oracle``). Plain arrays in, plain arrays out; numba
-``njit(cache=True)``, so a second process loads the machine code.
+reaches (``multicrane.tasks.distance_oracle``). Plain arrays in, and a ``SearchScratch`` to
+work in (``multicrane.tasks.search_scratch``: nothing here allocates, so the kernels compile
+without numba's reference counting and compiled callers that must not allocate call them
+too); numba ``cache=True``, so a second process loads the machine code.
 """
 
 from __future__ import annotations
@@ -17,11 +19,19 @@ import numba
 import numpy as np
 
 from multicrane.tasks.distance_oracle import CLOSED, fits_base, resume
+from multicrane.tasks.search_scratch import (
+    _FIRST_TABLE,
+    ROOM_HEAP,
+    ROOM_PATH,
+    ROOM_ROWS,
+    ROOM_TABLE,
+)
 
 CELL, FROM, TO, OWNER = range(4)  # the columns of a reservation row
+_kernel = numba.njit(cache=True, _nrt=False)  # (module doc)
 
 
-@numba.njit(cache=True)
+@_kernel
 def conflict_kernel(rows, n_rows, cells, lo, hi, me):
     """Another owner than ``me`` holds one of ``cells`` at some time in ``lo..hi``."""
     for i in range(n_rows):
@@ -33,7 +43,7 @@ def conflict_kernel(rows, n_rows, cells, lo, hi, me):
     return False
 
 
-@numba.njit(cache=True)
+@_kernel
 def path_rows_kernel(rows, n_rows, comp, rel, t0, positions, T, inf):
     """Append the rows of a path (``positions[i]`` at ``t0 + i``) from time ``T`` on, its
     last position held until ``inf``, after row ``n_rows``; returns the new row count. The
@@ -55,7 +65,7 @@ def path_rows_kernel(rows, n_rows, comp, rel, t0, positions, T, inf):
     return n_rows
 
 
-@numba.njit(cache=True)
+@_kernel
 def goal_free_from_kernel(rows, n_rows, comp, rel, goal, t_start, inf):
     """``reservations.goal_free_from``: the first time from ``t_start`` on after which no
     other owner holds the goal's cells; -1 when one holds them for ever."""
@@ -72,21 +82,21 @@ def goal_free_from_kernel(rows, n_rows, comp, rel, goal, t_start, inf):
     return free_from
 
 
-@numba.njit(cache=True)
-def _cell_lists(rows, n_rows, comp, t_start, n_cells):
-    """Per cell, a linked list of the rows that can conflict with ``comp``'s search: other
-    owners, holding until ``t_start`` or later (every query asks about ``t_start`` on)."""
-    head = np.full(n_cells, -1, dtype=np.int32)
-    nxt = np.empty(max(n_rows, 1), dtype=np.int32)
+@_kernel
+def _cell_lists(rows, n_rows, comp, t_start, head, nxt):
+    """Per cell, a linked list (``head``, a cell's first row, and ``nxt``, each row's next;
+    -1 ends) of the rows that can conflict with ``comp``'s search: other owners, holding
+    until ``t_start`` or later (every query asks about ``t_start`` on)."""
+    n_cells = head.size
+    head[:] = -1
     for i in range(n_rows):
         c = rows[i, CELL]
         if rows[i, OWNER] != comp and rows[i, TO] >= t_start and 0 <= c < n_cells:
             nxt[i] = head[c]
             head[c] = i
-    return head, nxt
 
 
-@numba.njit(cache=True)
+@_kernel
 def _held(rows, head, nxt, rel, p, lo, hi):
     """Some listed row holds a cell of the shape at position ``p`` at a time in ``lo..hi``."""
     n_cells = head.size
@@ -102,53 +112,53 @@ def _held(rows, head, nxt, rel, p, lo, hi):
     return False
 
 
-@numba.njit(cache=True)
-def space_time_kernel(
+@_kernel
+def space_time_search_into(
     rows, n_rows, comp, rel, start, t_start, goal, stop, occ, status, static, reach, coords,
-    deltas, oracle, slack, max_expansions, lifted_onto_goal_arrives, inf,
+    deltas, oracle, slack, max_expansions, lifted_onto_goal_arrives, inf, scratch,
 ):  # fmt: skip
-    """``reservations.space_time_search`` on flat reservation rows: (the path's positions,
-    empty when none; the states expanded). ``stop``: a flag per position (the stop poses);
-    the fit is ``distance_oracle.fits_base`` of ``occ``, ``status`` and ``reach``, and the
-    distances to the goal are the ``oracle``'s (``multicrane.tasks.distance_oracle``, which
-    reads the site's arrays given here)."""
+    """``reservations.space_time_search`` on flat reservation rows, in ``scratch``: (the
+    path's length, its positions in ``scratch.path``, 0 when none, or a ``ROOM_*`` code when
+    an array of ``scratch`` is too small for this search; the states expanded). ``stop``: a
+    flag per position (the stop poses); the fit is ``distance_oracle.fits_base`` of ``occ``,
+    ``status`` and ``reach``, and the distances to the goal are the ``oracle``'s, which reads
+    the site's arrays given here."""
     site = (occ, status, static, reach, rel, coords, deltas)
-    empty = np.empty(0, dtype=np.int64)
     if not fits_base(occ, status, reach, rel, goal):
-        return empty, 0
+        return 0, 0
     free_from = goal_free_from_kernel(rows, n_rows, comp, rel, goal, t_start, inf)
     if free_from < 0:
-        return empty, 0
+        return 0, 0
     h0 = resume(oracle, *site, start)
     if h0 < 0:
-        return empty, 0
+        return 0, 0
     if start == goal and lifted_onto_goal_arrives:
-        return (np.full(1, start, dtype=np.int64) if t_start >= free_from else empty), 0
+        if t_start < free_from:
+            return 0, 0
+        scratch.path[0] = start
+        return 1, 0
     t_cap = t_start + h0 + slack
     if free_from >= t_cap:  # held up to the time cap: no arrival in time (specification)
-        return empty, 0
-    head, nxt = _cell_lists(rows, n_rows, comp, t_start, stop.size)
+        return 0, 0
+    if n_rows > scratch.nxt.size:
+        return ROOM_ROWS, 0
+    head, nxt = scratch.head[: stop.size], scratch.nxt
+    _cell_lists(rows, n_rows, comp, t_start, head, nxt)
     below = free_from - t_start  # no arrival before: every state of lower f comes first
     if below > h0 and _states_below(
         rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, below, max_expansions,
+        scratch,
     ) > max_expansions:  # fmt: skip
-        return empty, max_expansions + 1  # the A* stops at its cap
-    if stop.size * (t_cap - t_start + 1) < 2**31:  # every state key fits 32 bits: half the table
-        keys, parents = np.full(1024, _EMPTY, np.int32), np.empty(1024, np.int32)
-        return _astar(
-            rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, t_cap, free_from,
-            max_expansions, keys, parents,
-        )  # fmt: skip
-    keys, parents = np.full(1024, _EMPTY, np.int64), np.empty(1024, np.int64)
+        return 0, max_expansions + 1  # the A* stops at its cap
     return _astar(
         rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, t_cap, free_from,
-        max_expansions, keys, parents,
+        max_expansions, scratch,
     )  # fmt: skip
 
 
-@numba.njit(cache=True)
+@_kernel
 def _states_below(
-    rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, below, limit,
+    rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, below, limit, scratch,
 ):  # fmt: skip
     """How many states ``(p, t)`` with ``f = t - t_start + h[p] < below`` the A* reaches,
     counted up to ``limit + 1``: time layer by time layer, by the A*'s own moves and checks.
@@ -161,9 +171,9 @@ def _states_below(
     occ, status, _, reach, _, _, deltas = site
     n = stop.size
     dist, mark = oracle[:n], oracle[n : 2 * n]
-    layer_of = np.full(n, -1, dtype=np.int32)  # the last layer a position was put in
-    layer = np.empty(n, dtype=np.int32)
-    after = np.empty(n, dtype=np.int32)
+    layer_of = scratch.layer_of[:n]  # the last layer a position was put in
+    layer_of[:] = -1
+    layer, after = scratch.layer[:n], scratch.after[:n]
     layer[0] = start
     size, count, g = 1, 0, 0
     while size:
@@ -203,7 +213,7 @@ _EMPTY = -1  # a free slot of the state table (state keys are never negative)
 _MIX = np.uint64(0x9E3779B97F4A7C15)  # Fibonacci hashing: spreads consecutive keys
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, _nrt=False, inline="always")
 def _slot(keys, key, mask):
     """The slot of ``key`` in the open-addressing table ``keys`` (linear probing): where it
     is, or the free slot where it goes."""
@@ -213,29 +223,31 @@ def _slot(keys, key, mask):
     return i
 
 
-@numba.njit(cache=True)
-def _grown(keys, parents):
-    """The state table at twice its size, every entry moved over."""
-    bigger = np.full(2 * keys.size, _EMPTY, dtype=keys.dtype)
-    moved = np.empty(2 * keys.size, dtype=keys.dtype)
-    mask = bigger.size - 1
-    for i in range(keys.size):
-        if keys[i] != _EMPTY:
-            j = _slot(bigger, keys[i], mask)
-            bigger[j] = keys[i]
-            moved[j] = parents[i]
-    return bigger, moved
+@_kernel
+def _grow(scratch, table, size):
+    """Move the state table of buffer ``table`` (``size`` slots) into the other buffer at
+    twice the size; returns False when the scratch has no room for it."""
+    if 2 * size > scratch.keys.shape[1]:
+        return False
+    old_keys, old_parents = scratch.keys[table], scratch.parents[table]
+    keys, parents = scratch.keys[1 - table, : 2 * size], scratch.parents[1 - table, : 2 * size]
+    keys[:] = _EMPTY
+    mask = 2 * size - 1
+    for i in range(size):
+        if old_keys[i] != _EMPTY:
+            j = _slot(keys, old_keys[i], mask)
+            keys[j] = old_keys[i]
+            parents[j] = old_parents[i]
+    return True
 
 
-@numba.njit(cache=True)
+@_kernel
 def _push(levels, sizes, level, key):
-    """Add ``key`` to the binary min-heap ``levels[level, :sizes[level]]``; returns the
-    levels (a bigger copy when that heap was full)."""
+    """Add ``key`` to the binary min-heap ``levels[level, :sizes[level]]``; False when the
+    heap is full."""
     size = sizes[level]
     if size == levels.shape[1]:
-        bigger = np.empty((levels.shape[0], 2 * size), dtype=np.int64)
-        bigger[:, :size] = levels
-        levels = bigger
+        return False
     heap = levels[level]
     i = size
     while i > 0:
@@ -246,10 +258,10 @@ def _push(levels, sizes, level, key):
         i = up
     heap[i] = key
     sizes[level] = size + 1
-    return levels
+    return True
 
 
-@numba.njit(cache=True)
+@_kernel
 def _pop(levels, sizes, level):
     """Remove and return the least key of the heap ``levels[level, :sizes[level]]``."""
     heap = levels[level]
@@ -271,15 +283,15 @@ def _pop(levels, sizes, level):
     return top
 
 
-@numba.njit(cache=True)
+@_kernel
 def _astar(
     rows, head, nxt, rel, start, t_start, goal, stop, site, oracle, t_cap, free_from,
-    max_expansions, keys, parents,
+    max_expansions, scratch,
 ):  # fmt: skip
-    """The A* loop of ``reservations._astar``. A state ``(p, t)`` is the key
+    """The A* loop of ``reservations._astar``: (the path's length in ``scratch.path``, 0
+    when none, or a ``ROOM_*`` code; the states expanded). A state ``(p, t)`` is the key
     ``p * span + t - t_start``; its parent's key is kept in an open-addressing table
-    (``keys``, ``parents``: empty, int32 or int64; -1: the start), grown before it is half
-    full.
+    (``scratch.keys``, ``scratch.parents``; -1: the start), grown before it is half full.
 
     The states pop in the order of the specification's heap of ``(f, h, t, p)``: with a
     consistent heuristic (breadth-first distances change by one a move at most) a pushed
@@ -290,15 +302,15 @@ def _astar(
     n = stop.size
     dist, mark = oracle[:n], oracle[n : 2 * n]
     span = t_cap - t_start + 1
-    mask = keys.size - 1
+    table, size, mask = 0, _FIRST_TABLE, _FIRST_TABLE - 1
+    keys, parents = scratch.keys[0, :size], scratch.parents[0, :size]
+    keys[:] = _EMPTY
     i = _slot(keys, start * span, mask)
     keys[i], parents[i] = start * span, -1
-    count = 1
-    f_now = resume(oracle, *site, start)
-    levels = np.empty((3, 4096), dtype=np.int64)  # the heap of f at row f % 3
-    sizes = np.zeros(3, dtype=np.int64)
-    levels = _push(levels, sizes, f_now % 3, f_now * n + start)
-    expansions = 0
+    count, expansions, f_now = 1, 0, resume(oracle, *site, start)
+    levels, sizes = scratch.levels, scratch.sizes  # the heap of f at row f % 3
+    sizes[:] = 0
+    _push(levels, sizes, f_now % 3, f_now * n + start)
     while sizes[0] or sizes[1] or sizes[2]:
         if sizes[f_now % 3] == 0:
             f_now += 1
@@ -311,9 +323,12 @@ def _astar(
             break
         if t >= t_cap:
             continue
-        if 2 * (count + len(deltas) + 1) > keys.size:  # room for this expansion's states
-            keys, parents = _grown(keys, parents)
-            mask = keys.size - 1
+        if 2 * (count + len(deltas) + 1) > size:  # room for this expansion's states
+            if not _grow(scratch, table, size):
+                return ROOM_TABLE, expansions
+            table, size = 1 - table, 2 * size
+            keys, parents = scratch.keys[table, :size], scratch.parents[table, :size]
+            mask = size - 1
         t1 = t + 1
         if _held(rows, head, nxt, rel, p, t1, t1):
             continue  # someone enters these cells at t1: it had to leave before
@@ -322,7 +337,8 @@ def _astar(
         if p != goal and keys[i] == _EMPTY:  # standing in the goal pose is no arrival
             keys[i], parents[i] = here + 1, here
             count += 1
-            levels = _push(levels, sizes, (f_now + 1) % 3, hp * n + p)
+            if not _push(levels, sizes, (f_now + 1) % 3, hp * n + p):
+                return ROOM_HEAP, expansions
         for d in deltas:
             q = p + d
             if q < 0 or q >= n or stop[q] or not fits_base(occ, status, reach, rel, q):
@@ -338,23 +354,26 @@ def _astar(
                 continue
             keys[i], parents[i] = key, here
             if q == goal:
-                return _path(keys, parents, key, span), expansions
+                return _path(keys, parents, key, span, scratch.path), expansions
             count += 1
             f = t1 - t_start + hq
             if f - f_now > 2 or f < f_now:
                 raise ValueError("the A* heuristic must be consistent (breadth-first moves)")
-            levels = _push(levels, sizes, f % 3, hq * n + q)
-    return np.empty(0, dtype=np.int64), expansions
+            if not _push(levels, sizes, f % 3, hq * n + q):
+                return ROOM_HEAP, expansions
+    return 0, expansions
 
 
-@numba.njit(cache=True)
-def _path(keys, parents, found, span):
-    """The positions from the start to the state ``found``, following the parents."""
+@_kernel
+def _path(keys, parents, found, span, path):
+    """The positions from the start to the state ``found``, following the parents, into
+    ``path``: their count, or ``ROOM_PATH`` when ``path`` is too short."""
     mask = keys.size - 1
     length = (found % span) + 1  # one position per time step from t_start
-    path = np.empty(length, dtype=np.int64)
+    if length > path.size:
+        return ROOM_PATH
     node = found
     for k in range(length - 1, -1, -1):
         path[k] = node // span
         node = parents[_slot(keys, node, mask)]
-    return path
+    return length

@@ -21,7 +21,7 @@ from multicrane.core.codes import Status
 from multicrane.episodes.random_actions import random_legal_action
 from multicrane.sim.grid_search import breadth_first, fits_everywhere
 from multicrane.sim.site import FREE, WALL
-from multicrane.tasks import search_kernels
+from multicrane.tasks import search_kernels, search_scratch
 from multicrane.tasks.distance_oracle import known_distances, lazy_distances
 from multicrane.tasks.goal_poses import goal_position
 from multicrane.tasks.reservation_arrays import ReservationArrays, compiled_search
@@ -121,24 +121,29 @@ def _kernel_site(site, rel):
     return occ, status, static, reach, np.asarray(rel, dtype=np.int64), coords, deltas
 
 
-def _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, site, h, slack):
-    """The A* loop with its state table in int32 (what every grid here gets) and in int64
-    (grids whose states need 64-bit keys): the same answer."""
+def _small_scratch_grows(arrays, comp, rel, start, t_start, goal, stops, site, h, slack):
+    """A search in scratch space far too small asks for room (``ROOM_*``) until it fits and
+    then answers as one in ample space: the same path and expansions."""
     rel = np.asarray(rel, dtype=np.int64)
-    free_from = goal_free_from_kernel(arrays.rows, arrays.n, comp, rel, goal, t_start, INF)
-    if h[start] < 0 or free_from < 0 or start == goal:
-        return
     stop = np.zeros(SIDE**3, dtype=np.bool_)
     stop[list(stops)] = True
-    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, SIDE**3)
-    answers = []
-    for width in (np.int32, np.int64):
-        answers.append(search_kernels._astar(
-            arrays.rows, head, nxt, rel, start, t_start, goal, stop, _kernel_site(site, rel),
-            known_distances(np.asarray(h, dtype=np.int32)), t_start + h[start] + slack,
-            free_from, 2000, np.full(1024, -1, width), np.empty(1024, width),
-        ))  # fmt: skip
+    occ, status, static, reach, coords, deltas = site
+    answers, rooms = [], set()
+    for scratch in (search_scratch.search_scratch(SIDE**3, 0, 0, 1, 1),
+                    search_scratch.search_scratch(SIDE**3, 4096, 1 << 16, 1 << 15, 4096)):
+        while True:
+            length, expansions = search_kernels.space_time_search_into(
+                arrays.rows, arrays.n, comp, rel, start, t_start, goal, stop, occ, status,
+                static, reach, coords, deltas, known_distances(np.asarray(h, dtype=np.int32)),
+                slack, 2000, True, INF, scratch,
+            )  # fmt: skip
+            if length >= 0:
+                break
+            rooms.add(length)
+            scratch = search_scratch.grown_scratch(scratch, length, arrays.n)
+        answers.append((scratch.path[:length].copy(), expansions))
     assert answers[0][1] == answers[1][1] and np.array_equal(answers[0][0], answers[1][0])
+    return rooms
 
 
 @settings(max_examples=150, deadline=None)
@@ -177,7 +182,7 @@ def test_compiled_search_is_the_specification(grid, both, data):
     _both(spec, arrays, comp, rel, start, t_start, goal, stops, site, ok, h, slack, lifted, cap)
     _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stops, site, ok, h,
                              slack)  # fmt: skip
-    _both_key_widths(arrays, comp, rel, start, t_start, goal, stops, site, h, slack)
+    _small_scratch_grows(arrays, comp, rel, start, t_start, goal, stops, site, h, slack)
     cells = [start + r for r in rel]
     lo = data.draw(st.integers(0, 25))
     hi = lo + data.draw(st.integers(0, 5))
@@ -198,11 +203,13 @@ def _below_is_expanded_first(spec, arrays, comp, rel, start, t_start, goal, stop
         return
     stop = np.zeros(len(ok), dtype=np.bool_)
     stop[list(stops)] = True
-    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, ok.size)
+    scratch = search_scratch.search_scratch(ok.size, arrays.n)
+    search_kernels._cell_lists(arrays.rows, arrays.n, comp, t_start, scratch.head, scratch.nxt)
     below = min(free_from, t_start + h[start] + slack) - t_start
     count = search_kernels._states_below(
-        arrays.rows, head, nxt, rel_a, start, t_start, goal, stop, _kernel_site(site, rel),
-        known_distances(np.asarray(h, dtype=np.int32)), below, 10**9,
+        arrays.rows, scratch.head, scratch.nxt, rel_a, start, t_start, goal, stop,
+        _kernel_site(site, rel), known_distances(np.asarray(h, dtype=np.int32)), below, 10**9,
+        scratch,
     )  # fmt: skip
     _, expanded = space_time_search(
         spec, comp, rel, start, t_start, goal, stops, bytes(ok), memoryview(h), DELTAS, slack,
@@ -223,12 +230,13 @@ def test_a_late_goal_over_the_cap_fails_as_the_specification():
     spec, arrays = ReservationTable(), ReservationArrays()
     for table in (spec, arrays):
         table.hold([goal], 0, 10, 9)
-    head, nxt = search_kernels._cell_lists(arrays.rows, arrays.n, 0, 0, ok.size)
+    scratch = search_scratch.search_scratch(ok.size, arrays.n)
+    search_kernels._cell_lists(arrays.rows, arrays.n, 0, 0, scratch.head, scratch.nxt)
     site = _site(free)
     count = search_kernels._states_below(
-        arrays.rows, head, nxt, np.zeros(1, dtype=np.int64), start, 0, goal,
+        arrays.rows, scratch.head, scratch.nxt, np.zeros(1, dtype=np.int64), start, 0, goal,
         np.zeros(ok.size, dtype=np.bool_), _kernel_site(site, (0,)), known_distances(h), 11,
-        10**9,
+        10**9, scratch,
     )  # fmt: skip
     assert count > 100
     for cap in (0, 1, count // 2, count - 1, count, count + 1, 10 * count):
