@@ -18,17 +18,19 @@ from pathlib import Path
 _KERNEL_MARKS = ("numba", "compiled import")  # ``import numba``, ``...compiled import kernel``
 
 
-def drop_stale_caches(package_file: str) -> list[Path]:
-    """Remove the numba cache files of ``package_file``'s folder when a kernel source there is
+def drop_stale_caches(package_file: str, *callees: str) -> list[Path]:
+    """Remove the numba cache files of ``package_file``'s folder when a kernel source there,
+    or in the folders of ``callees`` (files of packages whose kernels this folder's call), is
     newer than the oldest cache index; returns the files removed (none when fresh)."""
     folder = Path(package_file).parent
     cache = folder / "__pycache__"
+    sources = [folder, *(Path(c).parent for c in callees)]
     try:
         indexes = list(cache.glob("*.nbi"))
         if not indexes:
             return []
         oldest = min(p.stat().st_mtime for p in indexes)
-        newer = [p for p in folder.glob("*.py") if p.stat().st_mtime > oldest]
+        newer = [p for f in sources for p in f.glob("*.py") if p.stat().st_mtime > oldest]
         if not any(_is_kernel_source(p) for p in newer):
             return []
         stale = indexes + list(cache.glob("*.nbc"))

@@ -95,7 +95,7 @@ class TaskLayout:
 
 
 @dataclass(frozen=True)
-class _EpisodeColumns:
+class EpisodeColumns:
     """The observation's columns that only the episode's static path lengths decide."""
 
     tasks: np.ndarray  # (N, P, 9) every crane's ``tasks`` table but its ``allowed`` column
@@ -103,14 +103,21 @@ class _EpisodeColumns:
     reach: np.ndarray  # (C, N) crane k can carry the component to some target
 
     @classmethod
-    def of(cls, book: TaskBook, D: float, task_base: np.ndarray) -> _EpisodeColumns:
-        lens = np.where(book.static_ok, book.static_len, np.iinfo(np.int64).max)
-        N, C = book.static_ok.shape[0], book.sim.site.n_components
+    def of(cls, book: TaskBook, D: float, task_base: np.ndarray) -> EpisodeColumns:
+        C = book.sim.site.n_components
+        return cls.of_lengths(book.static_len, book.static_ok, book.tasks.comp, C, D, task_base)
+
+    @classmethod
+    def of_lengths(cls, static_len: np.ndarray, static_ok: np.ndarray, task_comp: np.ndarray,
+                   C: int, D: float, task_base: np.ndarray) -> EpisodeColumns:  # fmt: skip
+        """The columns of an episode's static path lengths (``TaskBook.static_len``)."""
+        lens = np.where(static_ok, static_len, np.iinfo(np.int64).max)
+        N = static_ok.shape[0]
         can = np.zeros((N, C), dtype=bool)
         for k in range(N):
-            np.logical_or.at(can[k], book.tasks.comp, book.static_ok[k])
+            np.logical_or.at(can[k], task_comp, static_ok[k])
         tasks = np.repeat(task_base[None], N, axis=0)
-        tasks[:, :, 7] = np.where(book.static_ok, np.minimum(book.static_len / D, 1.0), 1.0)
+        tasks[:, :, 7] = np.where(static_ok, np.minimum(static_len / D, 1.0), 1.0)
         return cls(tasks, lens.min(axis=0).astype(np.float64), np.ascontiguousarray(can.T))
 
 
@@ -156,7 +163,7 @@ class TaskObserver:
         self._task_base = np.zeros((len(tasks), len(TASK_FEATURES)), dtype=np.float32)
         self._task_base[:, 0] = tasks.comp / max(C - 1, 1)
         self._task_base[:, 1:7] = self._targets[tasks.target]
-        self._episode: _EpisodeColumns | None = None
+        self._episode: EpisodeColumns | None = None
         self._size = self.layout.size
 
     def _cell_coordinates(self) -> np.ndarray:
@@ -223,10 +230,10 @@ class TaskObserver:
         return out
 
     def _start_episode(self) -> None:
-        """The episode's columns (``_EpisodeColumns``), an observation template holding them
+        """The episode's columns (``EpisodeColumns``), an observation template holding them
         and each crane's "self" flag, and the cell poses seen so far (none)."""
         book, N = self.book, self.sim.n_cranes
-        self._episode = _EpisodeColumns.of(book, self.D, self._task_base)
+        self._episode = EpisodeColumns.of(book, self.D, self._task_base)
         shapes = dict(self.layout.blocks())
         comp_size = int(np.prod(shapes["components"]))
         n_crane = shapes["cranes"][1]

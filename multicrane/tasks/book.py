@@ -82,21 +82,9 @@ class TaskBook:
         self.static_ok = self.static_len != UNREACHABLE
 
     def _static_lengths(self) -> np.ndarray:
-        """(N, P): each crane's static path length of each task (``UNREACHABLE``: none, or
-        out of the crane's reach); without reach zones one row serves every crane."""
-        sim, pickup = self.sim, self.sim.state.pickup
-        n, pairs = sim.n_cranes, self.tasks.pairs
-        if sim.site.reach is None:
-            row = np.empty(len(pairs), dtype=np.int64)
-            for c, (tasks, targets) in self.tasks.by_component().items():
-                row[tasks] = self.static.lengths(pickup[c], targets, -1)
-            return np.repeat(row[None, :], n, axis=0)
-        out = np.full((n, len(pairs)), UNREACHABLE, dtype=np.int64)
-        for p, (c, t) in enumerate(pairs):
-            for k in range(n):
-                if self.carrier.reaches_pair(k, c, t):
-                    out[k, p] = self.static.length(pickup[c], t, k)
-        return out
+        """(N, P): ``static_lengths`` of this episode's pick-up poses."""
+        sim = self.sim
+        return static_lengths(sim.site, self.static, self.tasks, sim.state.pickup, sim.n_cranes)
 
     # -- queries ---------------------------------------------------------------------------
 
@@ -333,3 +321,21 @@ class TaskBook:
                 self.started[k] = False
                 self.since[k] = st.step_count
         return freed
+
+
+def static_lengths(site, static: StaticPaths, tasks: TaskList, pickup, n_cranes: int) -> np.ndarray:
+    """(N, P): each crane's static path length of each task from the pick-up poses
+    ``pickup`` (``UNREACHABLE``: none, or the pick-up pose or the target out of the crane's
+    reach); without reach zones one row serves every crane."""
+    pairs = tasks.pairs
+    if site.reach is None:
+        row = np.empty(len(pairs), dtype=np.int64)
+        for c, (ids, targets) in tasks.by_component().items():
+            row[ids] = static.lengths(pickup[c], targets, -1)
+        return np.repeat(row[None, :], n_cranes, axis=0)
+    out = np.full((n_cranes, len(pairs)), UNREACHABLE, dtype=np.int64)
+    for p, (c, t) in enumerate(pairs):
+        for k in range(n_cranes):
+            if site.reaches(k, pickup[c]) and site.reaches(k, site.target_cells[t]):
+                out[k, p] = static.length(pickup[c], t, k)
+    return out

@@ -95,6 +95,15 @@ def _episode_ranking(carrier: Carrier, rank: str, list_rank: dict) -> tuple[np.n
     kept = per_rank.get(rank)
     if kept is not None and kept[0] == list_rank:
         return kept[1]
+    chains = site_chains(carrier.sim.site)[0] if rank == "chain" else None
+    ranking = rank_pairs(dist, rank, list_rank, chains)
+    per_rank[rank] = (dict(list_rank), ranking)
+    return ranking
+
+
+def rank_pairs(dist: np.ndarray, rank: str, list_rank: dict, chains=None) -> tuple[np.ndarray, ...]:
+    """Every pair with a distance (``dist``: components x targets, -1 none), best first, as
+    arrays ``(comp, target, distance)``; ``chains``: each target's chain (``rank="chain"``)."""
     comp, targets = np.nonzero(dist >= 0)
     d = dist[comp, targets]
     if rank in ("list", "chain"):
@@ -102,13 +111,11 @@ def _episode_ranking(carrier: Carrier, rank: str, list_rank: dict) -> tuple[np.n
         by_comp[list(list_rank)] = list(list_rank.values())
         keys = [targets, d, by_comp[comp]]
         if rank == "chain":
-            keys.append(-site_chains(carrier.sim.site)[0][targets])
+            keys.append(-np.asarray(chains)[targets])
         order = np.lexsort(keys)
     else:
         order = np.lexsort((targets, comp, d))
-    ranking = (comp[order], targets[order], d[order])
-    per_rank[rank] = (dict(list_rank), ranking)
-    return ranking
+    return comp[order], targets[order], d[order]
 
 
 def _open_targets(sim: Simulator, taken: set[int]) -> np.ndarray:

@@ -1,8 +1,10 @@
-"""The plumbing both vector envs share: the copy count, seeding, buffer copies, errors, queries.
+"""The plumbing the vector envs share: the copy count, seeding, buffer copies, errors, queries.
 
-``Copies`` is a mixin of ``PaperVectorEnv`` and ``MotionVectorEnv``: each keeps its kernels,
-its arrays (``state``, ``buffers``) and its own ``_infos``; this holds what the two do alike
-around them (docs/vector.md).
+``Copies`` is a mixin of ``PaperVectorEnv``, ``MotionVectorEnv`` and ``TaskVectorEnv``: each
+keeps its kernels, its arrays (``state``, ``buffers``, and those its ``SNAPSHOT`` names) and
+its own ``_infos``; this holds what they do alike around them (docs/vector.md).
+``CraneCopies`` adds what the envs with one action per copy and crane share: the actions'
+checks and the masks' (``strict``), with the one-site env's errors naming the copy and crane.
 """
 
 from __future__ import annotations
@@ -26,6 +28,9 @@ class Copies:
     scenario: Any
     state: Any
     buffers: Any
+    # The arrays a snapshot holds: named tuples that ``set_state`` replaces with copies (they
+    # may differ in size), then those it writes into in place (they may not).
+    SNAPSHOT: tuple[tuple[str, ...], tuple[str, ...]] = (("state",), ("buffers",))
 
     def _set_up_copies(self, num_envs: int, copy: bool) -> int:
         """Check and keep the copy count (ValueError below 1) and ``copy``; returns the count."""
@@ -92,28 +97,29 @@ class Copies:
     def get_state(self) -> dict[str, Any]:
         """A snapshot of every copy (state arrays, generators included, output buffers and
         flags) that ``set_state`` restores: the copies then go on exactly as from here."""
-        return {
-            "state": [a.copy() for a in self.state],
-            "buffers": [a.copy() for a in self.buffers],
-            "started": self._started,
-            "done": self._done.copy(),
-        }
+        replaced, written = self.SNAPSHOT
+        saved = {name: [a.copy() for a in getattr(self, name)] for name in replaced + written}
+        return {**saved, "started": self._started, "done": self._done.copy()}
 
     def set_state(self, saved: dict[str, Any]) -> None:
         """Return every copy to a ``get_state`` snapshot of an env of the same scenario,
         options and copy count (ValueError naming the array that does not fit). State arrays
         may differ in size (the motion env's event tables grow); buffers may not."""
-        for name, arrays in (("state", self.state), ("buffers", self.buffers)):
+        replaced, written = self.SNAPSHOT
+        for name in replaced + written:
+            arrays = getattr(self, name)
             if len(saved[name]) != len(arrays):
                 raise ValueError(f"saved vector env {name}: {len(saved[name])} arrays, "
                                  f"expected {len(arrays)}")  # fmt: skip
             for field, array, value in zip(arrays._fields, arrays, saved[name], strict=True):
-                if value.dtype != array.dtype or (name == "buffers" and value.shape != array.shape):
+                if value.dtype != array.dtype or (name in written and value.shape != array.shape):
                     raise ValueError(f"saved vector env {name}.{field}: {value.dtype}"
                                      f"{value.shape}, expected {array.dtype}{array.shape}")
-        self.state = type(self.state)(*(a.copy() for a in saved["state"]))
-        for array, value in zip(self.buffers, saved["buffers"], strict=True):
-            array[...] = value
+        for name in replaced:
+            setattr(self, name, type(getattr(self, name))(*(a.copy() for a in saved[name])))
+        for name in written:
+            for array, value in zip(getattr(self, name), saved[name], strict=True):
+                array[...] = value
         self._started = bool(saved["started"])
         self._done[:] = saved["done"]
 
@@ -123,6 +129,54 @@ class Copies:
         if not 0 <= as_integer(copy, "copy") < self.num_envs:
             raise IndexError(f"copy {copy} out of range 0..{self.num_envs - 1}")
         return generator_of(self.state.rng[copy])
+
+
+class CraneCopies(Copies):
+    """``Copies`` with one action per copy and crane (``n_cranes``, ``n_actions``,
+    ``strict``, ``buffers.masks`` ``[B, N, A]`` and the one-site ``reference`` env's words for
+    an action); the kernels check the range and name the first action outside it."""
+
+    n_cranes: int
+    n_actions: int
+    reference: Any
+
+    def _actions(self, actions) -> np.ndarray:
+        """The actions as a C-ordered int64 array of shape (num_envs, n_cranes) (the type
+        the kernels were called with); else the one-site env's errors, naming the copy and
+        the crane."""
+        a = actions if isinstance(actions, np.ndarray) else np.asarray(actions)
+        shape = (self.num_envs, self.n_cranes)
+        if a.shape != shape:
+            raise ValueError(
+                f"step(): actions must have shape {shape} (one per copy and crane), got {a.shape}"
+            )
+        if a.dtype == bool or not np.issubdtype(a.dtype, np.integer):
+            for (copy, crane), value in np.ndenumerate(a):
+                action = as_integer(value, f"step(): copy {copy}: the action of crane_{crane}")
+                if not 0 <= action < self.n_actions:
+                    self._out_of_range(copy, crane, action)
+        return np.ascontiguousarray(a, dtype=np.int64)
+
+    def _out_of_range(self, copy: int, crane: int, action: int) -> None:
+        raise ValueError(
+            f"step(): copy {copy}: crane_{crane} sent action {action}, "
+            f"outside 0..{self.n_actions - 1}"
+        )
+
+    def _check_masks(self, a: np.ndarray) -> None:
+        """``strict``: the first action the masks do not allow (one out of range is left to
+        the kernel's check) is refused, naming the copy, the crane and the action."""
+        inside = (a >= 0) & (a < self.n_actions)
+        clipped = np.clip(a, 0, self.n_actions - 1)[..., None]
+        legal = np.take_along_axis(self.buffers.masks, clipped, axis=2)
+        bad = np.argwhere(inside & (legal[..., 0] == 0))
+        if len(bad):
+            copy, crane = (int(v) for v in bad[0])
+            what = self.reference.mode.describe(int(a[copy, crane]))
+            raise ValueError(
+                f"step(): copy {copy}: crane_{crane} sent illegal action "
+                f"{a[copy, crane]} ({what})"
+            )
 
 
 def _per_copy(flags: np.ndarray) -> np.ndarray:

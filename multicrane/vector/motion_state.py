@@ -92,13 +92,14 @@ class MotionBuffers(NamedTuple):
 
 
 def allocate(
-    site: MotionSite, n: int, obs_dtype: Any = np.float32
+    site: MotionSite, n: int, obs_dtype: Any = np.float32, observed: bool = True
 ) -> tuple[MotionState, MotionBuffers]:
     """Zeroed state and buffers for ``n`` copies of a compiled site (reset them before use),
-    observations in ``obs_dtype`` (uint8: a site compiled in whole numbers)."""
+    observations in ``obs_dtype`` (uint8: a site compiled in whole numbers); without
+    ``observed`` (the task level observes by its own tables) no room for them."""
     C, L = site.target_cells.shape
     N = site.n_cranes
-    D = site.obs_size
+    D = site.obs_size if observed else 0
     XY = len(site.column_base)
     state = MotionState(
         **component_state(site, n),

@@ -26,7 +26,7 @@ from multicrane.vector.pcg64 import permutation
 
 
 @inlined
-def _reward(site, st, buf, b, complete):
+def team_reward(site, st, buf, b, complete):
     """``motion_mode.physical_step``'s reward: the team reward, and each crane's term."""
     N = site.n_cranes
     terms = buf.terms
@@ -63,12 +63,10 @@ def _reward(site, st, buf, b, complete):
 
 
 @inlined
-def step_copy(site, st, buf, b, actions):
-    """One joint step of copy ``b``; returns True when its episode ended."""
+def act_in_order(site, st, buf, b, actions):
+    """Count the step and let each crane of copy ``b`` act (``actions``: one per crane) in
+    an order drawn from the copy's generator (``rng.permutation(N)``; none for one crane)."""
     N = site.n_cranes
-    for k in range(N):
-        for e in range(buf.event_counts.shape[2]):
-            buf.event_counts[b, k, e] = 0
     st.step_count[b] += 1
     if N > 1:
         permutation(st.rng, b, buf.order, N)
@@ -78,11 +76,21 @@ def step_copy(site, st, buf, b, actions):
     buf.ready_changed[0] = False
     for i in range(N):
         crane = buf.order[i]
-        rules.act(site, st, buf, b, crane, actions[b, crane])
+        rules.act(site, st, buf, b, crane, actions[crane])
+
+
+@inlined
+def step_copy(site, st, buf, b, actions):
+    """One joint step of copy ``b``; returns True when its episode ended."""
+    N = site.n_cranes
+    for k in range(N):
+        for e in range(buf.event_counts.shape[2]):
+            buf.event_counts[b, k, e] = 0
+    act_in_order(site, st, buf, b, actions[b])
     if site.has_events:
         apply_events(site, st, buf, b)
     complete = st.n_assembled[b] == len(site.length)
-    r = _reward(site, st, buf, b, complete)
+    r = team_reward(site, st, buf, b, complete)
     count = st.step_count[b]
     truncated = not complete and (
         count >= site.step_limit or (site.cycle_limit > 0 and count >= site.cycle_limit)
@@ -97,7 +105,7 @@ def step_copy(site, st, buf, b, actions):
 
 
 @kernel
-def _lay_out(site, st, buf, b):
+def lay_out_copy(site, st, buf, b):
     """The components at the start drawn in ``buf.chosen`` (``paper_reset.lay_out``), none
     held, and each crane's reach of the pick-up poses."""
     lay_out(site, st, buf, b)
@@ -130,7 +138,7 @@ def reset_copy(site, st, buf, b):
     start, then ``buf.scheduling[b]``); False when no start is found."""
     if not draw_start(site, st, buf, b):
         return False
-    _lay_out(site, st, buf, b)
+    lay_out_copy(site, st, buf, b)
     for k in range(site.n_cranes):
         st.held[b, k] = -1
         st.assembling[b, k] = 0

@@ -18,17 +18,17 @@ import numpy as np
 from gymnasium import spaces
 
 from multicrane.core.schema import Scenario
-from multicrane.envs.boundary import as_integer, require_reset
+from multicrane.envs.boundary import require_reset
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.sim.events import EventSpec
-from multicrane.vector.copies import Copies
+from multicrane.vector.copies import CraneCopies
 from multicrane.vector.event_schedules import draw_schedules
 from multicrane.vector.motion_site import compile_motion_site, obs_scale
 from multicrane.vector.motion_state import allocate
 from multicrane.vector.motion_step import finish_resets, reset_copies, step_batch
 
 
-class MotionVectorEnv(Copies):
+class MotionVectorEnv(CraneCopies):
     """``num_envs`` copies of ``MultiCraneEnv(scenario, n_cranes, obs_format="flat", ...)``
     with motion-level decisions.
 
@@ -146,42 +146,6 @@ class MotionVectorEnv(Copies):
             sim.events, sim.site, self.n_cranes, sim.horizon, self.state, copies
         )
         finish_resets(self.site, self.state, self.buffers, count)
-
-    def _actions(self, actions) -> np.ndarray:
-        """The actions as an int64 array of shape (num_envs, n_cranes); else the one-site
-        env's errors, naming the copy and the crane."""
-        a = np.asarray(actions)
-        shape = (self.num_envs, self.n_cranes)
-        if a.shape != shape:
-            raise ValueError(
-                f"step(): actions must have shape {shape} (one per copy and crane), got {a.shape}"
-            )
-        if a.dtype != bool and np.issubdtype(a.dtype, np.integer):
-            return a if a.dtype == np.int64 else a.astype(np.int64)
-        for (copy, crane), value in np.ndenumerate(a):
-            action = as_integer(value, f"step(): copy {copy}: the action of crane_{crane}")
-            if not 0 <= action < self.n_actions:
-                self._out_of_range(copy, crane, action)
-        return a.astype(np.int64)
-
-    def _out_of_range(self, copy: int, crane: int, action: int) -> None:
-        raise ValueError(
-            f"step(): copy {copy}: crane_{crane} sent action {action}, "
-            f"outside 0..{self.n_actions - 1}"
-        )
-
-    def _check_masks(self, a: np.ndarray) -> None:
-        inside = (a >= 0) & (a < self.n_actions)
-        clipped = np.clip(a, 0, self.n_actions - 1)[..., None]
-        legal = np.take_along_axis(self.buffers.masks, clipped, axis=2)
-        bad = np.argwhere(inside & (legal[..., 0] == 0))
-        if len(bad):
-            copy, crane = (int(v) for v in bad[0])
-            what = self.reference.mode.describe(int(a[copy, crane]))
-            raise ValueError(
-                f"step(): copy {copy}: crane_{crane} sent illegal action "
-                f"{a[copy, crane]} ({what})"
-            )
 
     def _infos(self) -> dict[str, np.ndarray]:
         buf, out = self.buffers, self._out

@@ -47,6 +47,23 @@ def test_caches_go_only_when_a_kernel_source_is_newer(tmp_path, kernel_age, othe
     assert drop_stale_caches(str(init)) == []  # nothing left, or nothing stale: no change
 
 
+@pytest.mark.parametrize("callee_age", [-5, +5], ids=["callee-older", "callee-edited"])
+def test_caches_go_when_a_kernel_source_of_a_callee_folder_is_newer(tmp_path, callee_age):
+    """A folder whose kernels call another folder's (the task vector kernels call the
+    searches of ``multicrane.tasks``) names it: an edit there drops this folder's caches."""
+    (tmp_path / "caller").mkdir()
+    init, files = _folder(tmp_path / "caller", -5, -5)
+    callee = tmp_path / "callee"
+    callee.mkdir()
+    (callee / "__init__.py").write_text("")
+    (callee / "search.py").write_text("import numba\n")
+    os.utime(callee / "search.py", (1_000_000 + callee_age,) * 2)
+    os.utime(callee / "__init__.py", (1_000_000 - 5,) * 2)
+    assert drop_stale_caches(str(init)) == []  # its own sources are older
+    removed = drop_stale_caches(str(init), str(callee / "__init__.py"))
+    assert sorted(removed) == (sorted(files) if callee_age > 0 else [])
+
+
 def test_a_folder_without_caches_is_left_alone(tmp_path):
     (tmp_path / "k.py").write_text("import numba\n")
     assert drop_stale_caches(str(tmp_path / "__init__.py")) == []

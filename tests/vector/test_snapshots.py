@@ -10,6 +10,7 @@ import pytest
 
 from multicrane.vector.motion_vector_env import MotionVectorEnv
 from multicrane.vector.paper_vector_env import PaperVectorEnv
+from multicrane.vector.task_vector_env import TaskVectorEnv
 
 
 def _legal_actions(rng: np.random.Generator, masks: np.ndarray) -> np.ndarray:
@@ -43,8 +44,9 @@ def _assert_same(a: list, b: list) -> None:
     [
         lambda: PaperVectorEnv(5, config="E1S1"),
         lambda: MotionVectorEnv(3, scenario="e2s3", n_cranes=2, max_steps=60, events="high"),
+        lambda: TaskVectorEnv(3, scenario="towers-3c", max_steps=120),
     ],
-    ids=["paper", "motion-events"],
+    ids=["paper", "motion-events", "task"],
 )
 def test_a_restored_env_goes_on_as_the_original(make):
     env = make()
@@ -73,3 +75,20 @@ def test_a_snapshot_that_does_not_fit_is_refused():
     snapshot["state"] = snapshot["state"][:-1]
     with pytest.raises(ValueError, match="state: .* arrays, expected"):
         env.set_state(snapshot)
+
+
+def test_a_restored_task_env_proposes_as_the_original():
+    """The task env's snapshot holds its task book and carrier too: the compiled rule, whose
+    plans ride in them, plays the same rounds after a restore."""
+    env = TaskVectorEnv(2, scenario="hall-4c", n_cranes=4)
+    env.reset(seed=5)
+    for _ in range(12):
+        env.step(env.propose())
+    snapshot = env.get_state()
+    first = [env.step(env.propose())[0].copy() for _ in range(60)]
+    other = TaskVectorEnv(2, scenario="hall-4c", n_cranes=4)
+    other.reset(seed=8)
+    other.propose()
+    other.set_state(snapshot)
+    again = [other.step(other.propose())[0].copy() for _ in range(60)]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
