@@ -34,7 +34,9 @@ policy's call (planning included: the prioritized rule's space-time searches) pl
 ``env.step`` that starts the tasks and advances the simulator to the next decision. It
 reports rounds per second and the mean and 95th percentile milliseconds per round, for the
 task-level prioritized planner and for random legal tasks, over whole episodes (seeds 0, 1,
-...) until ``--steps`` rounds have been timed (resets excluded).
+...) until ``--steps`` rounds have been timed (resets excluded), for the one-site env and then
+for the compiled task env (``TaskVectorEnv`` with one copy, docs/vector.md: the same rounds
+number for number, its planners compiled: ``env.propose()`` and uniform allowed tasks).
 
 With ``--vector`` it times the vector paper env (``multicrane.vector``, docs/vector.md) beside
 the one-site env, in one process on one core: steps per second for B = 1, 64, 1024 and 4096
@@ -46,7 +48,10 @@ for the vector motion env (``MotionVectorEnv``) on hall-4c with 4 cranes, joint 
 second under uniform random legal actions, beside the one-site ``parallel_env``, with float32
 observations (``vector``) and with ``obs_dtype=np.uint8`` (``vector-u8``: a quarter of the
 observation memory; the kernels compile once more for it); with ``--events LEVEL`` both motion
-envs play with site events of that level (docs/uncertainty.md).
+envs play with site events of that level (docs/uncertainty.md). Last, the compiled task env
+(``TaskVectorEnv``, hall-4c, 4 cranes) beside the one-site task env: decision rounds a second
+for B = 1, 64 and 1024 copies under the prioritized rule and random allowed tasks, and the
+bytes of state and buffers per copy.
 
 With ``--train`` it times training, rollouts and updates (one torch thread), in the paper
 mode (``--paper``'s first configuration, else E1S1; SB3's MaskablePPO at the paper's
@@ -166,18 +171,26 @@ def _runs(args: argparse.Namespace) -> list[tuple[str, object, int | None]]:
 
 
 def run_task(args: argparse.Namespace) -> int:
+    """Task-level decision rounds of the one-site env and of the compiled task env (one copy,
+    ``multicrane.vector.task_vector_env``), the same planners, in turn."""
     import multicrane
+    from multicrane.vector import bench as vector
 
     runs = _runs(args)
     rounds = min(args.steps, 2000) if args.steps == 20000 else args.steps
-    print(f"{'scenario':<12} {'cranes':>6} {'policy':>12} {'rounds/s':>10} {'mean ms':>8} "
-          f"{'p95 ms':>8}")  # fmt: skip
+    print(f"{'scenario':<12} {'cranes':>6} {'policy':>12} {'env':>9} {'rounds/s':>10} "
+          f"{'mean ms':>8} {'p95 ms':>8}")  # fmt: skip
     for name, scenario, n in runs:
         shown = n if n is not None else multicrane.load_scenario(scenario).cranes
         for policy in ("prioritized", "random"):
-            t = task_round_seconds(scenario, n, rounds, policy)
-            print(f"{name:<12} {shown:>6} {policy:>12} {1 / t.mean():>10,.0f} "
-                  f"{1000 * t.mean():>8.2f} {1000 * np.percentile(t, 95):>8.2f}")  # fmt: skip
+            times = {"one-site": task_round_seconds(scenario, n, rounds, policy)}
+            try:
+                times["compiled"] = vector.task_round_seconds(scenario, n, rounds, policy)
+            except ValueError as unmodelled:  # site events: the one-site env only
+                print(f"{name:<12} {shown:>6} {policy:>12} compiled: {unmodelled}")
+            for env, t in times.items():
+                print(f"{name:<12} {shown:>6} {policy:>12} {env:>9} {1 / t.mean():>10,.0f} "
+                      f"{1000 * t.mean():>8.3f} {1000 * np.percentile(t, 95):>8.3f}")  # fmt: skip
     return 0
 
 
@@ -256,6 +269,32 @@ def run_vector_motion(args: argparse.Namespace) -> int:
     first, second = vector.start_seconds(scenario, cranes)
     print(f"motion env, first step of a fresh process: {first:.1f} s with an empty numba "
           f"cache, {second:.2f} s with the cache it left")  # fmt: skip
+    return run_vector_task(args)
+
+
+TASK_COPIES = (1, 64, 1024)  # the task env's copy counts in ``--vector``
+
+
+def run_vector_task(args: argparse.Namespace) -> int:
+    """The compiled task env (hall-4c, 4 cranes) beside the one-site task env: decision
+    rounds a second under the prioritized rule and random tasks (see DESCRIPTION)."""
+    from multicrane.vector import bench as vector
+
+    scenario, cranes = "hall-4c", 4
+    print(f"{'scenario':<8} {'env':<9} {'copies':>6} {'policy':>12} {'rounds/s':>10} "
+          f"{'bytes/copy':>11}")  # fmt: skip
+    for policy in ("prioritized", "random"):
+        rates: dict[int, list[float]] = {0: [], **{b: [] for b in TASK_COPIES}}
+        for _ in range(3):  # interleaved, as above
+            rates[0].append(1 / task_round_seconds(scenario, cranes, 600, policy).mean())
+            for b in TASK_COPIES:
+                t = vector.task_round_seconds(scenario, cranes, max(8, 2000 // b), policy, b)
+                rates[b].append(b / t.mean())
+        print(f"{scenario:<8} {'one-site':<9} {1:>6} {policy:>12} {np.median(rates[0]):>10,.0f}")
+        for b in TASK_COPIES:
+            size = vector.task_bytes_per_copy(scenario, cranes, b)
+            print(f"{scenario:<8} {'vector':<9} {b:>6} {policy:>12} "
+                  f"{np.median(rates[b]):>10,.0f} {size:>11,.0f}")  # fmt: skip
     return 0
 
 

@@ -2,9 +2,12 @@
 
 ``multicrane bench --vector`` prints these beside the one-site envs' figures. Random actions
 are drawn by compiled samplers (``sample_moves``: uniform moves for the paper env;
-``sample_legal``: a uniform legal action per crane from the masks for the motion env), so
-the clock sees ``env.step`` (its checks, the kernel, the infos) and not a Python loop over
-the copies.
+``sample_legal``: a uniform legal action per crane from the masks for the motion env;
+``sample_tasks``: a uniform allowed task per idle crane for the task env, as
+``policies.task_planners.TaskRandom`` chooses), so the clock sees ``env.step`` (its checks,
+the kernel, the infos) and not a Python loop over the copies. ``task_round_seconds`` times
+the task env's decision rounds one by one, the chooser's call included, as
+``multicrane bench --decisions task`` times the one-site env's.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from multicrane.vector.motion_vector_env import MotionVectorEnv
 from multicrane.vector.paper_state import nbytes
 from multicrane.vector.paper_vector_env import PaperVectorEnv
 from multicrane.vector.pcg64 import bounded, state_of
+from multicrane.vector.task_vector_env import TaskVectorEnv
 
 # A second process: the seconds from its first line to its first step done.
 _FIRST_STEP = """
@@ -70,6 +74,69 @@ def sample_legal(rng, masks, out):
                         out[b, k] = a
                         break
                     pick -= 1
+
+
+@kernel
+def sample_tasks(rng, masks, out):
+    """A uniform allowed task per copy and crane into ``out`` ([B, N]) from the task masks
+    ([B, N, 1 + P]), 0 (wait) where none, drawn from the generator in ``rng[0]``."""
+    for b in range(masks.shape[0]):
+        for k in range(masks.shape[1]):
+            n = 0
+            for a in range(1, masks.shape[2]):
+                n += masks[b, k, a]
+            out[b, k] = 0
+            if n == 0:
+                continue
+            pick = bounded(rng, 0, n)
+            for a in range(1, masks.shape[2]):
+                if masks[b, k, a]:
+                    if pick == 0:
+                        out[b, k] = a
+                        break
+                    pick -= 1
+
+
+def task_env(scenario, cranes: int | None, num_envs: int = 1) -> TaskVectorEnv:
+    return TaskVectorEnv(num_envs, scenario, n_cranes=cranes)
+
+
+def task_round_seconds(scenario, cranes: int | None, rounds: int, policy: str,
+                       num_envs: int = 1, seed: int = 0) -> np.ndarray:  # fmt: skip
+    """Seconds of each of ``rounds`` decision rounds of ``TaskVectorEnv`` (``num_envs``
+    copies at once): the chooser's call (``"prioritized"``: ``env.propose()``; ``"random"``:
+    ``sample_tasks``) plus ``env.step``, after 300 copy-rounds of warm-up, from seed
+    ``seed``."""
+    env = task_env(scenario, cranes, num_envs)
+    env.reset(seed=seed)
+    rng = state_of(np.random.default_rng(seed))[None].copy()
+    actions = np.zeros((num_envs, env.n_cranes), dtype=np.int64)
+    masks = env.buffers.masks
+
+    def choose():
+        if policy == "prioritized":
+            return env.propose()
+        sample_tasks(rng, masks, actions)
+        return actions
+
+    if policy not in ("prioritized", "random"):
+        raise ValueError(f"policy must be prioritized or random, got {policy!r}")
+    for _ in range(max(2, 300 // num_envs)):
+        env.step(choose())
+    seconds = np.empty(rounds)
+    for i in range(rounds):
+        begun = time.perf_counter()
+        env.step(choose())
+        seconds[i] = time.perf_counter() - begun
+    return seconds
+
+
+def task_bytes_per_copy(scenario, cranes: int | None, num_envs: int) -> float:
+    """Bytes per copy of the task env's state and buffers (the site's and the task book's;
+    the kernels' scratch space is the env's, shared by the copies, and not counted)."""
+    env = task_env(scenario, cranes, num_envs)
+    arrays = (env.state, env.motion_buffers, env.tasks, env.buffers)
+    return sum(nbytes(a) for a in arrays) / num_envs
 
 
 def motion_steps_per_second(
