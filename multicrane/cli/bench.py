@@ -50,8 +50,8 @@ observations (``vector``) and with ``obs_dtype=np.uint8`` (``vector-u8``: a quar
 observation memory; the kernels compile once more for it); with ``--events LEVEL`` both motion
 envs play with site events of that level (docs/uncertainty.md). Last, the compiled task env
 (``TaskVectorEnv``, hall-4c, 4 cranes) beside the one-site task env: decision rounds a second
-for B = 1, 64 and 1024 copies under the prioritized rule and random allowed tasks, and the
-bytes of state and buffers per copy.
+for B = 1, 64 and 1024 copies under the prioritized rule and random allowed tasks, the
+bytes of state and buffers per copy, and a fresh process's seconds to its first round.
 
 With ``--train`` it times training, rollouts and updates (one torch thread), in the paper
 mode (``--paper``'s first configuration, else E1S1; SB3's MaskablePPO at the paper's
@@ -295,6 +295,9 @@ def run_vector_task(args: argparse.Namespace) -> int:
             size = vector.task_bytes_per_copy(scenario, cranes, b)
             print(f"{scenario:<8} {'vector':<9} {b:>6} {policy:>12} "
                   f"{np.median(rates[b]):>10,.0f} {size:>11,.0f}")  # fmt: skip
+    first, second = vector.start_seconds(scenario, cranes, task=True)
+    print(f"task env, first round of a fresh process: {first:.1f} s with an empty numba "
+          f"cache, {second:.2f} s with the cache it left")  # fmt: skip
     return 0
 
 

@@ -49,6 +49,15 @@ env.reset(seed=0)
 env.step(np.full((1, env.n_cranes), 6, dtype=np.int64))
 print(time.perf_counter() - begun)
 """
+_FIRST_TASK_STEP = """
+import time
+begun = time.perf_counter()
+from multicrane.vector.task_vector_env import TaskVectorEnv
+env = TaskVectorEnv(1, {scenario!r}, n_cranes={cranes!r})
+env.reset(seed=0)
+env.step(env.propose())
+print(time.perf_counter() - begun)
+"""
 
 
 @kernel
@@ -201,14 +210,18 @@ def bytes_per_copy(config: str, num_envs: int) -> float:
     return (nbytes(env.state) + nbytes(env.buffers)) / num_envs
 
 
-def start_seconds(config: str, cranes: int | None = None) -> tuple[float, float]:
+def start_seconds(
+    config: str, cranes: int | None = None, task: bool = False
+) -> tuple[float, float]:
     """(first process, second process): seconds from a fresh Python's first line to its
     first step, with an empty numba cache (the compile) and then with the cache it left;
-    ``cranes`` given: of the motion env on scenario ``config``, else the paper env."""
+    ``cranes`` given: of the motion env on scenario ``config`` (``task``: the task env, its
+    first round with the compiled rule), else the paper env."""
     if cranes is None:
         script = _FIRST_STEP.format(config=config)
     else:
-        script = _FIRST_MOTION_STEP.format(scenario=config, cranes=cranes)
+        template = _FIRST_TASK_STEP if task else _FIRST_MOTION_STEP
+        script = template.format(scenario=config, cranes=cranes)
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         runs = [

@@ -33,9 +33,18 @@ def test_a_second_process_starts_from_the_cache():
 def fake_measurements(monkeypatch) -> None:
     """Stand-ins for the bench's measurements: 1,000 paper and 10 motion steps per second a
     copy (20 with uint8 observations), 30 s to start with an empty numba cache and 1.5 s with
-    it, 200,000 bytes a copy (100,000 with uint8 observations)."""
+    it, 200,000 bytes a copy (100,000 with uint8 observations); task rounds of 0.5 ms in the
+    one-site env and 0.1 ms a call in the vector env, 300,000 bytes a copy."""
+    from multicrane.cli import bench as bench_command
+
     monkeypatch.setattr(bench, "steps_per_second", lambda config, b: 1000.0 * b)
-    monkeypatch.setattr(bench, "start_seconds", lambda config, cranes=None: (30.0, 1.5))
+    monkeypatch.setattr(bench, "start_seconds",
+                        lambda config, cranes=None, task=False: (30.0, 1.5))  # fmt: skip
+    monkeypatch.setattr(bench_command, "task_round_seconds",
+                        lambda scenario, n, rounds, policy: np.full(4, 5e-4))  # fmt: skip
+    monkeypatch.setattr(bench, "task_round_seconds",
+                        lambda scenario, n, rounds, policy, b=1: np.full(4, 1e-4))  # fmt: skip
+    monkeypatch.setattr(bench, "task_bytes_per_copy", lambda scenario, n, b: 3e5)
     monkeypatch.setattr(bench, "motion_steps_per_second",
                         lambda scenario, cranes, b, events=None, obs_dtype=np.float32:
                         (20.0 if obs_dtype == np.uint8 else 10.0) * b)  # fmt: skip
@@ -61,6 +70,14 @@ def test_the_command_prints_both_envs(monkeypatch, capsys):
         for b in (1, 64, 1024, 4096)
         for kind, rate, size in (("vector", 10, "200,000"), ("vector-u8", 20, "100,000"))
     ]
+    task = [line.split() for line in out[19:27]]  # after the task header: hall-4c rows
+    assert out[18].split() == ["scenario", "env", "copies", "policy", "rounds/s", "bytes/copy"]
+    for policy, rows in (("prioritized", task[:4]), ("random", task[4:])):
+        assert rows[0] == ["hall-4c", "one-site", "1", policy, "2,000"]
+        assert [row[2:] for row in rows[1:]] == [
+            [str(b), policy, f"{10_000 * b:,}", "300,000"] for b in (1, 64, 1024)
+        ]
+    assert "task env, first round" in out[27] and "1.50 s with the cache" in out[27]
 
 
 def test_events_reach_both_motion_envs_and_need_vector(monkeypatch, capsys):
