@@ -103,13 +103,8 @@ class EpisodeColumns:
     reach: np.ndarray  # (C, N) crane k can carry the component to some target
 
     @classmethod
-    def of(cls, book: TaskBook, D: float, task_base: np.ndarray) -> EpisodeColumns:
-        C = book.sim.site.n_components
-        return cls.of_lengths(book.static_len, book.static_ok, book.tasks.comp, C, D, task_base)
-
-    @classmethod
-    def of_lengths(cls, static_len: np.ndarray, static_ok: np.ndarray, task_comp: np.ndarray,
-                   C: int, D: float, task_base: np.ndarray) -> EpisodeColumns:  # fmt: skip
+    def of(cls, static_len: np.ndarray, static_ok: np.ndarray, task_comp: np.ndarray, C: int,
+           D: float, task_base: np.ndarray) -> EpisodeColumns:  # fmt: skip
         """The columns of an episode's static path lengths (``TaskBook.static_len``)."""
         lens = np.where(static_ok, static_len, np.iinfo(np.int64).max)
         N = static_ok.shape[0]
@@ -229,11 +224,26 @@ class TaskObserver:
                 out[k, at:] = planes[k]
         return out
 
+    def episode_columns(self, static_len: np.ndarray, static_ok: np.ndarray) -> EpisodeColumns:
+        """The columns an episode's static path lengths decide (``TaskBook.static_len`` and
+        ``static_ok``; the task vector env's copies too)."""
+        C = self.sim.site.n_components
+        return EpisodeColumns.of(static_len, static_ok, self.book.tasks.comp, C, self.D,
+                                 self._task_base)  # fmt: skip
+
+    def site_tables(self) -> dict:
+        """What a site fixes of the observation, for the task vector env's compiler: each
+        cell's coordinates / the site size (``cell_xyz``), the beam flags, the targets' nodes,
+        each crane's reach row, the divisors ``D`` and ``T_norm``, and the vector's size."""
+        return {"cell_xyz": self._coords, "beam": self._beam, "target_nodes": self._targets,
+                "reach_row": self._reach, "D": self.D, "T_norm": self.T_norm,
+                "obs_size": self.layout.size}  # fmt: skip
+
     def _start_episode(self) -> None:
         """The episode's columns (``EpisodeColumns``), an observation template holding them
         and each crane's "self" flag, and the cell poses seen so far (none)."""
         book, N = self.book, self.sim.n_cranes
-        self._episode = EpisodeColumns.of(book, self.D, self._task_base)
+        self._episode = self.episode_columns(book.static_len, book.static_ok)
         shapes = dict(self.layout.blocks())
         comp_size = int(np.prod(shapes["components"]))
         n_crane = shapes["cranes"][1]

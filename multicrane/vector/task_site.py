@@ -104,13 +104,7 @@ def compile_task_site(env: MultiCraneEnv) -> TaskSite:
         slack=carrier.slack,
         max_expansions=carrier.max_expansions,
         patience=book.patience,
-        obs_size=observer.layout.size,
-        cell_xyz=observer._coords,
-        beam=observer._beam,
-        target_nodes=observer._targets,
-        reach_row=observer._reach,
-        D=observer.D,
-        T_norm=observer.T_norm,
+        **observer.site_tables(),
         cycle_limit=env.max_cycles or 0,
     )
 

@@ -21,7 +21,6 @@ from multicrane.core.schema import Scenario
 from multicrane.envs.boundary import require_reset
 from multicrane.envs.crane_env import MultiCraneEnv
 from multicrane.envs.infos import TASK_EVENTS
-from multicrane.envs.task_observation import EpisodeColumns
 from multicrane.sim.events import EventSpec
 from multicrane.sim.shortest_paths import UNREACHABLE
 from multicrane.tasks.book import static_lengths
@@ -144,24 +143,20 @@ class TaskVectorEnv(CraneCopies):
         breadth-first searches, cached for the site), then their observations."""
         book, site, tt = self._book, self.reference.sim.site, self.tasks
         observer = self.reference.mode.observer
-        lengths = self.site.length
         for b in np.flatnonzero(which):
             pickup = self._pickup(b)
             static_len = static_lengths(site, book.static, book.tasks, pickup, self.n_cranes)
             static_ok = static_len != UNREACHABLE
             tt.static_len[b] = static_len
             tt.static_ok[b] = static_ok
-            columns = EpisodeColumns.of_lengths(
-                static_len, static_ok, book.tasks.comp, len(lengths), observer.D,
-                observer._task_base,
-            )  # fmt: skip
+            columns = observer.episode_columns(static_len, static_ok)
             tt.episode_tasks[b] = columns.tasks.reshape(self.n_cranes, -1)
             tt.pair_len[b] = columns.pair_len
             tt.reach_can[b] = columns.reach
             if self._rule is not None:
                 self._rank_copy(b, pickup)
-        observe_copies(self.site, self.state, self.task_site, tt, self.buffers, self.scratch,
-                       np.asarray(which, dtype=bool))  # fmt: skip
+        self._call(observe_copies, self.site, self.state, self.task_site, tt, self.buffers,
+                   self.scratch, np.asarray(which, dtype=bool))  # fmt: skip
 
     # -- the prioritized rule ---------------------------------------------------------------
 
