@@ -2,13 +2,12 @@
 
 ``TaskState`` holds what ``multicrane.tasks.book.TaskBook`` and ``multicrane.tasks.carrier``
 keep for one site, for ``B`` copies, beside the motion mode's ``MotionState`` (the site itself):
-each crane's task, the episode's static path lengths, and the carrier's plans in ``S`` slots
-.
-A plan slot holds what ``reservations.Plan`` holds, its positions included (room for the
-longest path a search can return: its time cap is the distance to the goal, at most the
+each crane's task, the episode's static path lengths, and the carrier's plans in ``S = N + 1``
+slots. A plan slot holds what ``reservations.Plan`` holds, its positions included (room for
+the longest path a search can return: its time cap is the distance to the goal, at most the
 grid's positions, plus the slack), and its insertion number, so that the kernels visit plans
-in the order of the carrier's dict. ``TaskBuffers`` holds what a step
-hands out: observations ``[B, N, D]``, masks ``[B, N, 1 + P]``, rewards, flags and counts.
+in the order of the carrier's dict. ``TaskBuffers`` holds what a step hands out:
+observations ``[B, N, D]``, masks ``[B, N, 1 + P]``, rewards, flags and counts.
 ``TaskScratch`` (and the searches' ``SearchScratch``) is the kernels' working space, shared by
 the copies, which a kernel steps one after the other: nothing in a kernel allocates.
 """
