@@ -105,7 +105,7 @@ def step_copy(site, st, buf, b, actions):
 
 
 @kernel
-def lay_out_copy(site, st, buf, b):
+def _lay_out(site, st, buf, b):
     """The components at the start drawn in ``buf.chosen`` (``paper_reset.lay_out``), none
     held, and each crane's reach of the pick-up poses."""
     lay_out(site, st, buf, b)
@@ -133,17 +133,26 @@ def _finish_reset(site, st, buf, b, count):
 
 
 @kernel
-def reset_copy(site, st, buf, b):
-    """Start a new episode in copy ``b`` from its generator (with site events: up to the
-    start, then ``buf.scheduling[b]``); False when no start is found."""
+def start_copy(site, st, buf, b):
+    """Copy ``b`` at the start of a new episode drawn from its generator (no crane holds or
+    assembles anything, nothing assembled but the pre-built); False when no start is found."""
     if not draw_start(site, st, buf, b):
         return False
-    lay_out_copy(site, st, buf, b)
+    _lay_out(site, st, buf, b)
     for k in range(site.n_cranes):
         st.held[b, k] = -1
         st.assembling[b, k] = 0
     st.n_assembled[b] = site.n_prebuilt
     st.step_count[b] = 0
+    return True
+
+
+@kernel
+def reset_copy(site, st, buf, b):
+    """Start a new episode in copy ``b`` from its generator (with site events: up to the
+    start, then ``buf.scheduling[b]``); False when no start is found."""
+    if not start_copy(site, st, buf, b):
+        return False
     if site.has_events:
         buf.scheduling[b] = True
     else:

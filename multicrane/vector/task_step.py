@@ -18,8 +18,7 @@ from __future__ import annotations
 from multicrane.envs.task_observation_kernel import component_rows_kernel
 from multicrane.vector import motion_rules as rules
 from multicrane.vector.compiled import kernel
-from multicrane.vector.motion_step import act_in_order, lay_out_copy, team_reward
-from multicrane.vector.paper_reset import draw_start
+from multicrane.vector.motion_step import act_in_order, start_copy, team_reward
 from multicrane.vector.task_book import (
     after_step,
     any_open,
@@ -154,14 +153,8 @@ def step_copy(ms, st, mbuf, ts, tt, tb, sc, ss, b, choices):
 def reset_start(ms, st, mbuf, tt, b):
     """A new episode in copy ``b`` up to its static path lengths: the start drawn from its
     generator, no tasks, no plans; False when no start is found."""
-    if not draw_start(ms, st, mbuf, b):
+    if not start_copy(ms, st, mbuf, b):
         return False
-    lay_out_copy(ms, st, mbuf, b)
-    for k in range(ms.n_cranes):
-        st.held[b, k] = -1
-        st.assembling[b, k] = 0
-    st.n_assembled[b] = ms.n_prebuilt
-    st.step_count[b] = 0
     rules.refresh_ready(ms, st, mbuf, b)
     reset_book(tt, b)
     return True
