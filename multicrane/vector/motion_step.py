@@ -179,24 +179,39 @@ def reset_copies(site, st, buf, which):
     return -1
 
 
+@inlined
+def first_out_of_range(actions, n_cranes, A):
+    """(copy, crane) of the first action outside ``0..A-1``, (-1, -1) when none."""
+    for b in range(actions.shape[0]):
+        for k in range(n_cranes):
+            if actions[b, k] < 0 or actions[b, k] >= A:
+                return b, k
+    return -1, -1
+
+
+@inlined
+def keep_final_obs(buf, b):
+    """Copy ``b``'s last observations into ``buf.final_obs`` (its episode just ended)."""
+    for k in range(buf.obs.shape[1]):
+        for i in range(buf.obs.shape[2]):
+            buf.final_obs[b, k, i] = buf.obs[b, k, i]
+
+
 @kernel
 def step_batch(site, st, buf, actions, autoreset):
     """Step every copy with its row of ``actions`` ((B, N) int64); returns (copy, crane) of
     the first action outside ``0..A-1`` (nothing is stepped then), and the first copy whose
     reset found no start; -1 where none. The next copy's lines are prefetched while a copy
     steps (``motion_prefetch``)."""
-    n, A = actions.shape[0], buf.masks.shape[2]
-    for b in range(n):
-        for k in range(site.n_cranes):
-            if actions[b, k] < 0 or actions[b, k] >= A:
-                return b, k, -1
+    n = actions.shape[0]
+    bad_copy, bad_crane = first_out_of_range(actions, site.n_cranes, buf.masks.shape[2])
+    if bad_copy >= 0:
+        return bad_copy, bad_crane, -1
     for b in range(n):
         if b + 1 < n:
             prefetch_copy(site, st, buf, b + 1)
         if step_copy(site, st, buf, b, actions) and autoreset:
-            for k in range(site.n_cranes):
-                for i in range(site.obs_size):
-                    buf.final_obs[b, k, i] = buf.obs[b, k, i]
+            keep_final_obs(buf, b)
             if not reset_copy(site, st, buf, b):
                 return -1, -1, b
     return -1, -1, -1

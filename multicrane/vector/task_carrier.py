@@ -46,7 +46,6 @@ def reset_carrier(tt, b):
     tt.n_inserted[b] = 0
     tt.n_seq[b] = 0
     tt.round_t[b] = -1
-    tt.force_replan[b] = False
     tt.may_start[b] = True
     tt.round_searches[b] = 0
 
@@ -170,8 +169,7 @@ def begin(ms, st, ts, tt, sc, ss, b, T):
     for k in range(N):
         tt.claims[b, k] = -1
     tt.round_searches[b] = 0
-    diverged = _sync(ms, st, tt, b, T) or tt.force_replan[b]
-    tt.force_replan[b] = False
+    diverged = _sync(ms, st, tt, b, T)  # (a refused action forces a replan: events only)
     transit = sc.cranes
     n = 0
     for k in range(N):  # in transit = held by a crane; in index order

@@ -56,7 +56,6 @@ class TaskState(NamedTuple):
     seq: np.ndarray  # (B, C) int64: a component's first plan's creation number, 0 none
     n_seq: np.ndarray  # (B,) int64
     round_t: np.ndarray  # (B,) int64: the round's time, -1 none yet
-    force_replan: np.ndarray  # (B,) bool
     may_start: np.ndarray  # (B,) bool
     claims: np.ndarray  # (B, N) int64: the component each crane claims in the coming step
     round_searches: np.ndarray  # (B,) int64
@@ -116,7 +115,6 @@ def allocate_tasks(site: TaskSite, n: int, n_cranes: int) -> tuple[TaskState, Ta
         seq=np.zeros((n, C), dtype=np.int64),
         n_seq=np.zeros(n, dtype=np.int64),
         round_t=minus(n),
-        force_replan=np.zeros(n, dtype=bool),
         may_start=np.ones(n, dtype=bool),
         claims=minus(n, N),
         round_searches=np.zeros(n, dtype=np.int64),
@@ -150,7 +148,6 @@ class TaskScratch(NamedTuple):
     parked: np.ndarray  # (N,) int64: those without a plan
     options: np.ndarray  # (K, 3) int64: a replan's (distance, target, goal) options
     order: np.ndarray  # (C,) int64: components to replan, oldest first
-    left: np.ndarray  # (C,) int64: those still parked
     joint: np.ndarray  # (N,) int64: the motion actions of a simulated step
     open_pairs: np.ndarray  # (P,) bool: tasks whose component and target are open
     comp_ok: np.ndarray  # (C,) bool
@@ -186,7 +183,6 @@ def allocate_scratch(
         parked=np.zeros(N, dtype=np.int64),
         options=np.zeros((motion_site.compatible.shape[1], 3), dtype=np.int64),
         order=np.zeros(C, dtype=np.int64),
-        left=np.zeros(C, dtype=np.int64),
         joint=np.zeros(N, dtype=np.int64),
         open_pairs=np.zeros(P, dtype=bool),
         comp_ok=np.zeros(C, dtype=bool),

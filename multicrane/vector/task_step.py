@@ -18,7 +18,13 @@ from __future__ import annotations
 from multicrane.envs.task_observation_kernel import component_rows_kernel
 from multicrane.vector import motion_rules as rules
 from multicrane.vector.compiled import kernel
-from multicrane.vector.motion_step import act_in_order, start_copy, team_reward
+from multicrane.vector.motion_step import (
+    act_in_order,
+    first_out_of_range,
+    keep_final_obs,
+    start_copy,
+    team_reward,
+)
 from multicrane.vector.task_book import (
     after_step,
     any_open,
@@ -184,17 +190,13 @@ def step_batch(ms, st, mbuf, ts, tt, tb, sc, ss, choices):
     paths and flagged in ``tb.ended``. Returns (copy, crane) of the first choice outside
     ``0..P`` (nothing is stepped then), and the first copy whose reset found no start; -1
     where none."""
-    n, A = choices.shape[0], tb.masks.shape[2]
-    for b in range(n):
-        for k in range(ms.n_cranes):
-            if choices[b, k] < 0 or choices[b, k] >= A:
-                return b, k, -1
-    for b in range(n):
+    bad_copy, bad_crane = first_out_of_range(choices, ms.n_cranes, tb.masks.shape[2])
+    if bad_copy >= 0:
+        return bad_copy, bad_crane, -1
+    for b in range(choices.shape[0]):
         tb.ended[b] = False
         if step_copy(ms, st, mbuf, ts, tt, tb, sc, ss, b, choices[b]):
-            for k in range(ms.n_cranes):
-                for i in range(tb.obs.shape[2]):
-                    tb.final_obs[b, k, i] = tb.obs[b, k, i]
+            keep_final_obs(tb, b)
             tb.ended[b] = True
             if not reset_start(ms, st, mbuf, tt, b):
                 return -1, -1, b
